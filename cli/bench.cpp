@@ -1,0 +1,150 @@
+// `parode bench collide SCENE`: times the collide stage of several backends
+// (each optionally with a thread count, "grid:2") on identical states in one
+// process. A driver pipeline advances the scene; every --every steps its body
+// states are copied into one World per variant and each variant's collide() is
+// timed --repeats times, the variants alternating. Prints per-variant medians,
+// ratios against the first variant, and whether all contact sets were identical.
+// Trade-off: one World per variant costs memory, but every backend then sees
+// exactly the same geoms in the space kind it wants.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "cli_common.hpp"
+#include "hash.hpp"
+#include "pipeline.hpp"
+#include "scene_file.hpp"
+
+namespace parode::cli {
+namespace {
+
+struct Variant {
+    std::string label;
+    std::unique_ptr<CollideBackend> backend;
+    std::unique_ptr<World> world;
+    std::vector<double> seconds;
+    double rss_mb = 0;  // peak-RSS growth on the first collide call
+    std::size_t contacts = 0;
+};
+
+double peak_rss_mb() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return static_cast<double>(u.ru_maxrss) / 1024.0;
+}
+
+Variant make_variant(const Scene& scene, const std::string& spec) {
+    Variant v;
+    v.label = spec;
+    const auto colon = spec.find(':');
+    const std::string name = spec.substr(0, colon);
+    v.backend = BackendRegistry::instance().make(name);
+    v.backend->set_threads(colon == std::string::npos ? 1 : std::stoi(spec.substr(colon + 1)));
+    v.world = std::make_unique<World>(scene, v.backend->space_kind());
+    return v;
+}
+
+void copy_state(const World& from, World& to) {
+    for (std::size_t i = 0; i < from.body_count(); ++i) {
+        dBodyID a = from.body(i), b = to.body(i);
+        const dReal* p = dBodyGetPosition(a);
+        dBodySetPosition(b, p[0], p[1], p[2]);
+        dBodySetQuaternion(b, dBodyGetQuaternion(a));
+        if (dBodyIsEnabled(a)) dBodyEnable(b);
+        else dBodyDisable(b);
+    }
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Time every variant on the current driver state; returns false if contact sets differ.
+bool sample(const World& driver, std::vector<Variant>& vars, int repeats, int max_contacts) {
+    std::vector<std::uint64_t> digests(vars.size());
+    for (auto& v : vars) copy_state(driver, *v.world);
+    for (int r = 0; r < repeats; ++r) {
+        for (std::size_t k = 0; k < vars.size(); ++k) {
+            ContactBuffer out;
+            const double before = peak_rss_mb();
+            const auto t0 = std::chrono::steady_clock::now();
+            vars[k].backend->collide(vars[k].world->space(), max_contacts, out);
+            vars[k].seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+            vars[k].rss_mb = std::max(vars[k].rss_mb, peak_rss_mb() - before);
+            vars[k].contacts = out.size();
+            digests[k] = contact_digest(out);
+        }
+    }
+    return std::all_of(digests.begin(), digests.end(), [&](std::uint64_t d) { return d == digests[0]; });
+}
+
+void print_table(const Scene& scene, const std::vector<Variant>& vars, bool identical, std::ostream& os) {
+    const double base = median(vars[0].seconds);
+    const double n = static_cast<double>(scene.bodies.size());
+    os << "collide benchmark: " << scene.name << ", " << scene.bodies.size() << " bodies, "
+       << vars[0].seconds.size() << " timings per variant\n";
+    os << "  variant            median ms   us/body   x vs " << vars[0].label << "   contacts  +RSS MB\n";
+    for (const auto& v : vars) {
+        const double m = median(v.seconds);
+        os << "  " << std::left << std::setw(18) << v.label << std::right << std::fixed << std::setprecision(3)
+           << std::setw(10) << 1e3 * m << std::setw(10) << 1e6 * m / n << std::setw(12) << std::setprecision(2)
+           << (m > 0 ? base / m : 0.0) << std::setw(11) << v.contacts << std::setw(9) << std::setprecision(1)
+           << v.rss_mb << "\n";
+    }
+    os << "  contact sets " << (identical ? "identical across variants (bit for bit)" : "DIFFER between variants") << "\n";
+}
+
+void write_csv(const std::string& path, const Scene& scene, const std::vector<Variant>& vars) {
+    std::ofstream out(path);
+    if (!out) throw std::runtime_error(path + ": cannot open CSV file for writing");
+    out << "scene,bodies,variant,median_s,speedup_vs_first,contacts,rss_mb\n";
+    const double base = median(vars[0].seconds);
+    for (const auto& v : vars) {
+        const double m = median(v.seconds);
+        out << scene.name << ',' << scene.bodies.size() << ',' << v.label << ',' << m << ',' << (m > 0 ? base / m : 0)
+            << ',' << v.contacts << ',' << v.rss_mb << '\n';
+    }
+}
+
+int bench_collide(const BenchArgs& a) {
+    const Scene scene = load_scene(a.scene, a.sets);
+    std::vector<Variant> vars;
+    for (const auto& spec : a.backends) vars.push_back(make_variant(scene, spec));
+    RunOptions opt;
+    opt.collide = a.backends.front().substr(0, a.backends.front().find(':'));
+    Pipeline driver(scene, opt);
+    bool identical = sample(driver.world(), vars, a.repeats, scene.solver.max_contacts);
+    for (int s = 1; s <= a.steps; ++s) {
+        driver.step();
+        if (s % a.every == 0) identical = sample(driver.world(), vars, a.repeats, scene.solver.max_contacts) && identical;
+    }
+    print_table(scene, vars, identical, std::cout);
+    if (!a.csv.empty()) write_csv(a.csv, scene, vars);
+    return identical ? 0 : 1;
+}
+
+}  // namespace
+
+void add_bench(CLI::App& app, BenchArgs& a, std::function<int()>& action) {
+    CLI::App* b = app.add_subcommand("bench", "Benchmark a stage of several implementations side by side");
+    b->add_option("what", a.what, "Stage to benchmark")->required()->check(CLI::IsMember({"collide"}));
+    b->add_option("scene", a.scene, "Scene file (TOML)")->required();
+    b->add_option("--set", a.sets, "Override a scene value, key=value; repeatable")->allow_extra_args(false);
+    a.backends = {"ode-hash", "ode-sap"};
+    b->add_option("--backends", a.backends, "Variants, NAME or NAME:THREADS; the first is the baseline and drives the scene")
+        ->delimiter(',')->capture_default_str();
+    b->add_option("--steps", a.steps, "Steps to advance the scene (samples along the way)")->check(CLI::NonNegativeNumber);
+    b->add_option("--every", a.every, "Sample every N steps")->check(CLI::PositiveNumber)->capture_default_str();
+    b->add_option("--repeats", a.repeats, "Timings per variant per sample")->check(CLI::PositiveNumber)->capture_default_str();
+    b->add_option("--csv", a.csv, "Also write the table as CSV");
+    b->callback([&] { action = [&] { return bench_collide(a); }; });
+}
+
+}  // namespace parode::cli
