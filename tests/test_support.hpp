@@ -1,0 +1,22 @@
+// Helpers shared by the tests: load a scene of the repository, run a pipeline
+// for a number of steps, read a body's pose. Trade-off: tests drive the same
+// Pipeline the CLI uses, so they test the real step, not a copy of it.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pipeline.hpp"
+#include "scene_file.hpp"
+
+namespace parode::test {
+
+std::string repo_path(const std::string& rel);
+Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets = {});
+// Run `steps` steps (then finish()) and return the pipeline for inspection.
+std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1);
+std::uint64_t hash_after(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1);
+Vec3 position(const Pipeline& p, std::size_t body);
+Vec3 velocity(const Pipeline& p, std::size_t body);
+
+}  // namespace parode::test
