@@ -58,6 +58,7 @@ int run_command(const RunArgs& a) {
     RunOptions opt;
     opt.collide = a.collide;
     opt.threads = resolve_threads(a.threads);
+    parode::omp::set_threads(opt.threads);
     opt.snapshot_path = a.snapshot;
     opt.snapshot_every = a.snapshot.empty() ? 0 : std::max(1, a.snapshot_every);
     Pipeline pipeline(scene, opt);

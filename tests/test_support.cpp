@@ -13,6 +13,7 @@ Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets) {
 
 std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide, int threads) {
     parode::omp::register_backends();
+    parode::omp::set_threads(threads);
     RunOptions opt;
     opt.collide = collide;
     opt.threads = threads;

@@ -1,0 +1,19 @@
+// Parallel magnet force pass: the per-body gather of MagnetField (src/magnets)
+// over OpenMP threads with dynamic scheduling. Each body's wrench is computed by
+// one thread in the serial order of its neighbours, so the result is bit for bit
+// the serial one for any thread count; applying the wrenches stays serial, in id
+// order (dBodyAddForce is safe only on distinct bodies, and order fixes the sums).
+// Trade-off: pole positions and the cell sort are still prepared serially.
+#include "magnet_pass.hpp"
+
+#include "magnets.hpp"
+
+namespace parode::omp {
+
+void gather_magnets_parallel(const MagnetField& field, std::vector<BodyWrench>& out) {
+    const long n = static_cast<long>(field.members().size());
+#pragma omp parallel for schedule(dynamic, 128)
+    for (long k = 0; k < n; ++k) out[static_cast<std::size_t>(k)] = field.gather(static_cast<std::size_t>(k));
+}
+
+}  // namespace parode::omp
