@@ -1,0 +1,79 @@
+// Uniform grid over the "small" geoms: each geom lives in the one cell holding
+// the minimum corner of its AABB, cells are at least as wide as the largest such
+// AABB, so two overlapping AABBs sit in the same or adjacent cells and a half
+// stencil (the cell itself plus 13 forward neighbours) finds every pair once.
+// Geoms are stored sorted by cell key in compact 64-byte entries. A dense
+// cell-start table is used when the cells number at most a few per geom,
+// otherwise sorted occupied keys with binary search: memory stays linear in the
+// number of geoms either way.
+// Trade-off: one cell size for all geoms, so geoms much larger than typical are
+// kept out (the caller's "big" list); a counting sort per call instead of any
+// incremental structure, which keeps every call independent of the last.
+#pragma once
+#include <ode/ode.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "geom_info.hpp"
+
+namespace parode::omp {
+
+struct alignas(64) GridEntry {
+    dReal aabb[6];
+    dBodyID body;
+    std::uint32_t info;   // index into the GeomInfo table
+    std::uint32_t flags;  // GeomFlag bits
+};
+
+class CellGrid {
+public:
+    // Sort the geoms `items` (indices into `infos`, all finite) into cells.
+    void build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+
+    std::size_t size() const { return entries_.size(); }
+    const GridEntry* entries() const { return entries_.data(); }
+    const PrimData* prims() const { return prims_.data(); }
+    std::uint64_t key(std::size_t i) const { return keys_[i]; }
+
+    // Sorted positions [begin, end) of the geoms in cells with keys in [k0, k1].
+    void range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin, std::uint32_t& end) const {
+        if (dense_) {
+            begin = start_[k0];
+            end = start_[k1 + 1];
+        } else {
+            sparse_range(k0, k1, begin, end);
+        }
+    }
+
+    // Key offsets of the four forward rows of the half stencil; each row
+    // covers the keys [k + offset - 1, k + offset + 1].
+    const std::uint64_t* row_offsets() const { return rows_; }
+
+    double cell_size() const { return h_; }
+
+private:
+    void sparse_range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin,
+                      std::uint32_t& end) const;
+    void choose_cells(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void compute_keys(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void sort_dense(std::size_t ncells);
+    void sort_sparse();
+    void fill_entries(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+
+    double h_ = 1, inv_h_ = 1;
+    double origin_[3] = {0, 0, 0};
+    std::uint64_t dims_[3] = {1, 1, 1};  // padded by one cell on each side
+    std::uint64_t rows_[4] = {0, 0, 0, 0};
+    bool dense_ = true;
+    std::vector<std::uint64_t> raw_keys_;  // per item, input order
+    std::vector<std::uint32_t> order_;     // sorted position -> item position
+    std::vector<std::uint32_t> start_;     // dense: cell -> first sorted position
+    std::vector<std::uint64_t> ukeys_;     // sparse: occupied keys
+    std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
+    std::vector<std::uint64_t> keys_;      // per sorted position
+    std::vector<GridEntry> entries_;
+    std::vector<PrimData> prims_;
+};
+
+}  // namespace parode::omp

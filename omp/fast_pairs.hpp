@@ -1,0 +1,114 @@
+// Sphere-sphere and sphere-plane contacts computed from compact copies of the
+// geoms' data, giving exactly what dCollide(lower id, higher id) writes: the same
+// arithmetic, in the same order, with ODE's own inline vector helpers, and the
+// same argument swap (normal negated, g1/g2 exchanged) when the plane comes first.
+// Trade-off: saves ODE's dispatch and two scattered geom reads per pair, at the
+// price of depending on ODE's formulas for these two pairs; the omp tests check
+// every contact against dCollide bit for bit. This file must be compiled without
+// floating-point contraction (-ffp-contract=off), as ODE is.
+#pragma once
+#include <ode/ode.h>
+
+#include <cstdint>
+
+#include "contacts.hpp"
+
+namespace parode::omp {
+
+// What the narrowphase needs of a sphere or a plane, copied once per call.
+struct PrimData {
+    dGeomID geom;
+    std::uint32_t id;
+    std::uint32_t pad;
+    dReal p[4];  // sphere: centre (p[0..2]) and radius (p[3]); plane: a, b, c, d
+};
+
+// dCollide(s1, s2) for two spheres, s1 given first. Returns the contact count
+// (0 or 1) and fills `c` as ODE does.
+inline int sphere_sphere(const PrimData& s1, const PrimData& s2, dContactGeom& c) {
+    const dReal r1 = s1.p[3];
+    const dReal r2 = s2.p[3];
+    // The squared distance exactly as dCalcPointsDistance3 sums it; its correctly
+    // rounded square root is ODE's d. Pairs clearly apart (beyond a relative
+    // margin far above rounding) are rejected before the square root: for them
+    // ODE's d > r1 + r2 holds as well.
+    dVector3 diff;
+    dSubtractVectors3(diff, s1.p, s2.p);
+    const dReal d2 = diff[0] * diff[0] + diff[1] * diff[1] + diff[2] * diff[2];
+    const dReal sum = r1 + r2;
+    if (d2 > sum * sum * REAL(1.0000000001) && sum >= 0) return 0;
+    const dReal d = dSqrt(d2);
+    if (d > sum) return 0;
+    c.g1 = s1.geom;
+    c.g2 = s2.geom;
+    c.side1 = -1;
+    c.side2 = -1;
+    c.pos[3] = 0;
+    c.normal[3] = 0;
+    if (d <= 0) {
+        for (int k = 0; k < 3; ++k) c.pos[k] = s1.p[k];
+        c.normal[0] = 1;
+        c.normal[1] = 0;
+        c.normal[2] = 0;
+        c.depth = r1 + r2;
+        return 1;
+    }
+    const dReal inv = dRecip(d);
+    for (int k = 0; k < 3; ++k) c.normal[k] = (s1.p[k] - s2.p[k]) * inv;
+    const dReal half = REAL(0.5) * (r2 - r1 - d);
+    for (int k = 0; k < 3; ++k) c.pos[k] = s1.p[k] + c.normal[k] * half;
+    c.depth = r1 + r2 - d;
+    return 1;
+}
+
+// The sphere-plane contact as ODE's sphere/plane collider computes it with the
+// sphere first. Returns 0 or 1.
+inline int sphere_plane(const PrimData& s, const PrimData& pl, dContactGeom& c) {
+    const dReal radius = s.p[3];
+    const dReal k = dCalcVectorDot3(s.p, pl.p);
+    const dReal depth = pl.p[3] - k + radius;
+    if (!(depth >= 0)) return 0;
+    c.g1 = s.geom;
+    c.g2 = pl.geom;
+    c.side1 = -1;
+    c.side2 = -1;
+    c.pos[3] = 0;
+    c.normal[3] = 0;
+    for (int j = 0; j < 3; ++j) c.normal[j] = pl.p[j];
+    for (int j = 0; j < 3; ++j) c.pos[j] = s.p[j] - pl.p[j] * radius;
+    c.depth = depth;
+    return 1;
+}
+
+// dCollide(plane, sphere): the sphere-first result seen from the plane's side.
+inline int plane_sphere(const PrimData& pl, const PrimData& s, dContactGeom& c) {
+    if (sphere_plane(s, pl, c) == 0) return 0;
+    for (int j = 0; j < 3; ++j) c.normal[j] = -c.normal[j];
+    c.g1 = pl.geom;
+    c.g2 = s.geom;
+    return 1;
+}
+
+// Appends the contact of a sphere/sphere or sphere/plane pair to `out` in
+// canonical order (the lower id is dCollide's first argument).
+inline void append_fast_pair(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
+                             int max_contacts, std::vector<ContactRecord>& out) {
+    if (max_contacts < 1 || a.geom == b.geom) return;  // dCollide: nothing, as ODE
+    const bool a_first = !(b.id < a.id);  // as ContactBuffer::collide_pair
+    const PrimData& first = a_first ? a : b;
+    const PrimData& second = a_first ? b : a;
+    const bool first_sphere = a_first ? a_sphere : b_sphere;
+    const bool second_sphere = a_first ? b_sphere : a_sphere;
+    dContactGeom c;  // every field is written when a contact is returned
+    int n = 0;
+    if (first_sphere && second_sphere) {
+        n = sphere_sphere(first, second, c);
+    } else if (first_sphere) {
+        n = sphere_plane(first, second, c);
+    } else {
+        n = plane_sphere(first, second, c);
+    }
+    if (n == 1) out.push_back(ContactRecord{first.id, second.id, 0, c});
+}
+
+}  // namespace parode::omp

@@ -1,0 +1,102 @@
+// Reading geoms into GeomInfo records (see geom_info.hpp): class, enabled and
+// zero-size state as ODE's spaces judge it, AABB, body, bits, id and the data of
+// the sphere/plane fast paths.
+// Trade-off: every getter is a call into ODE; they run once per geom per call,
+// spread over tasks, instead of once per candidate pair.
+#include "geom_info.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace parode::omp {
+namespace {
+
+// ODE's spaces skip geoms whose size parameters make them zero-sized.
+bool zero_sized(dGeomID g, int cls) {
+    dReal r = 0, l = 0;
+    switch (cls) {
+        case dSphereClass: return dGeomSphereGetRadius(g) == 0;
+        case dBoxClass: {
+            dVector3 s;
+            dGeomBoxGetLengths(g, s);
+            return s[0] == 0 || s[1] == 0 || s[2] == 0;
+        }
+        case dCapsuleClass: dGeomCapsuleGetParams(g, &r, &l); return r == 0;
+        case dCylinderClass: dGeomCylinderGetParams(g, &r, &l); return r == 0 || l == 0;
+        default: return false;
+    }
+}
+
+std::uint32_t class_flags(dGeomID g, int cls) {
+    if (dGeomIsSpace(g)) return kSpace;
+    if (cls >= dFirstUserClass) return kUser;
+    switch (cls) {
+        case dSphereClass: return kSafe | kSphere;
+        case dPlaneClass: return kSafe | kPlane;
+        case dBoxClass:
+        case dCapsuleClass:
+        case dCylinderClass:
+        case dRayClass: return kSafe;
+        default: return kUnsafe;
+    }
+}
+
+void read_prim(dGeomID g, std::uint32_t flags, PrimData& p) {
+    p.geom = g;
+    p.id = geom_id(g);
+    p.pad = 0;
+    if (flags & kSphere) {
+        const dReal* pos = dGeomGetPosition(g);
+        for (int k = 0; k < 3; ++k) p.p[k] = pos[k];
+        p.p[3] = dGeomSphereGetRadius(g);
+    } else if (flags & kPlane) {
+        dVector4 params;
+        dGeomPlaneGetParams(g, params);
+        for (int k = 0; k < 4; ++k) p.p[k] = params[k];
+    } else {
+        std::fill(p.p, p.p + 4, dReal(0));
+    }
+}
+
+void read_extent(GeomInfo& info) {
+    bool finite = true;
+    for (int k = 0; k < 6; ++k) finite = finite && std::isfinite(info.aabb[k]);
+    info.extent = 0;
+    if (!finite) return;
+    info.flags |= kFinite;
+    for (int k = 0; k < 3; ++k) info.extent = std::max(info.extent, info.aabb[2 * k + 1] - info.aabb[2 * k]);
+}
+
+}  // namespace
+
+GeomInfo read_geom(dGeomID g) {
+    GeomInfo info;
+    const int cls = dGeomGetClass(g);
+    info.flags = class_flags(g, cls);
+    if (dGeomIsEnabled(g) && !zero_sized(g, cls)) info.flags |= kEnabled;
+    dGeomGetAABB(g, info.aabb);
+    info.body = dGeomGetBody(g);
+    info.category = dGeomGetCategoryBits(g);
+    info.collide = dGeomGetCollideBits(g);
+    if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
+    read_extent(info);
+    read_prim(g, info.flags, info.prim);
+    return info;
+}
+
+void list_space(dSpaceID space, std::vector<dGeomID>& out) {
+    const int n = dSpaceGetNumGeoms(space);
+    out.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = dSpaceGetGeom(space, i);
+}
+
+void read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out) {
+    const long n = static_cast<long>(geoms.size());
+    out.resize(geoms.size());
+    GeomInfo* dst = out.data();
+    const dGeomID* src = geoms.data();
+#pragma omp taskloop grainsize(1024) default(none) firstprivate(dst, src, n)
+    for (long i = 0; i < n; ++i) dst[i] = read_geom(src[i]);
+}
+
+}  // namespace parode::omp

@@ -1,0 +1,70 @@
+// One compact record per geom, read from ODE once per call, and the pair filter
+// that ODE's spaces apply before their near-callback (collideAABBs): same body,
+// category/collide bits, closed AABB overlap. Reading happens in parallel, so it
+// requires every AABB to be current (dSpaceClean first): then the ODE getters
+// used here only read.
+// Trade-off: a copy of ~120 bytes per geom, in exchange for never touching ODE's
+// scattered geom memory again in the broadphase.
+#pragma once
+#include <ode/ode.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "fast_pairs.hpp"
+
+namespace parode::omp {
+
+enum GeomFlag : std::uint32_t {
+    kEnabled = 1u << 0,     // enabled and not zero-sized: ODE's spaces consider it
+    kSphere = 1u << 1,      // sphere: fast path available
+    kPlane = 1u << 2,       // plane: fast path available (with a sphere)
+    kSafe = 1u << 3,        // primitive: dCollide may run concurrently
+    kSpace = 1u << 4,       // a nested space
+    kUnsafe = 1u << 5,      // trimesh, heightfield, convex, transform: serial only
+    kUser = 1u << 6,        // user class: its AABB test is unreachable, use ODE
+    kCustomBits = 1u << 7,  // category or collide bits differ from all-ones
+    kFinite = 1u << 8,      // AABB finite on all six sides
+};
+
+struct GeomInfo {
+    dReal aabb[6];  // ODE order: min x, max x, min y, max y, min z, max z
+    dBodyID body;
+    unsigned long category;
+    unsigned long collide;
+    std::uint32_t flags;
+    dReal extent;   // largest side of the AABB (finite geoms)
+    PrimData prim;  // geom, id, and sphere/plane parameters
+};
+
+// Read one geom (its AABB must be current).
+GeomInfo read_geom(dGeomID g);
+
+// The geoms of a space in ODE's list order (serial: ODE's enumerator is stateful).
+void list_space(dSpaceID space, std::vector<dGeomID>& out);
+
+// read_geom over a list, as OpenMP tasks when called inside a parallel region.
+void read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out);
+
+// ODE's closed AABB overlap test (disjoint only if strictly separated).
+// Evaluated without branches (bitwise or of the six comparisons): the outcome
+// is close to random for neighbours in a pile, so branches mispredict.
+inline bool aabb_overlap(const dReal* a, const dReal* b) {
+    const bool apart = (a[0] > b[1]) | (a[1] < b[0]) | (a[2] > b[3]) | (a[3] < b[2]) |
+                       (a[4] > b[5]) | (a[5] < b[4]);
+    return !apart;
+}
+
+// Body and category/collide tests of collideAABBs (AABB overlap tested apart).
+inline bool body_and_bits_pass(const GeomInfo& a, const GeomInfo& b) {
+    if (a.body && a.body == b.body) return false;
+    if (((a.flags | b.flags) & kCustomBits) == 0) return true;
+    return ((a.category & b.collide) || (b.category & a.collide));
+}
+
+// The complete collideAABBs filter.
+inline bool ode_pair_filter(const GeomInfo& a, const GeomInfo& b) {
+    return aabb_overlap(a.aabb, b.aabb) && body_and_bits_pass(a, b);
+}
+
+}  // namespace parode::omp

@@ -1,0 +1,373 @@
+// The collision engine (see grid_collide.hpp). One OpenMP team per call; a
+// single thread walks the stages and spawns taskloops for the parallel ones:
+//   read geoms -> split small/big -> grid -> grid pairs + big pairs (tasks,
+//   fused broadphase and narrowphase) -> nested spaces -> deferred pairs
+//   (serial) -> canonical merge.
+// Nested spaces and dSpaceCollide2 follow ODE's rules: a space meets a geom
+// through the space's collide2 (its enabled geoms against the geom, enabled or
+// not); two spaces meet by running the one with fewer geoms (all of them)
+// against the other, unless their sublevels differ, in which case the deeper
+// one is treated as a plain geom.
+// Trade-off: deferred pairs run on one thread; they are rare in the scenes this
+// engine targets (primitives), and that keeps trimesh/heightfield safe.
+#include "grid_collide.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "cell_grid.hpp"
+#include "geom_info.hpp"
+#include "lanes.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace parode::omp {
+namespace {
+
+constexpr long kGridChunk = 256;  // sorted geoms per task in the grid pass
+constexpr long kScanChunk = 512;  // geoms per task in scans against a few geoms
+
+bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
+    return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
+}
+
+int thread_index() {
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
+}
+
+double now() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+int default_threads() {
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 1;
+#endif
+}
+
+// Extent above which a geom goes to the big list: a few times the typical
+// (90th percentile of a sample) extent, so one outlier cannot coarsen the grid.
+double big_threshold(const std::vector<GeomInfo>& infos) {
+    std::vector<double> sample;
+    const std::size_t stride = std::max<std::size_t>(1, infos.size() / 2048);
+    for (std::size_t i = 0; i < infos.size(); i += stride) {
+        const GeomInfo& g = infos[i];
+        if ((g.flags & kEnabled) && (g.flags & kFinite)) sample.push_back(g.extent);
+    }
+    if (sample.empty()) return 0;
+    auto p90 = sample.begin() + static_cast<long>(sample.size() * 9 / 10);
+    std::nth_element(sample.begin(), p90, sample.end());
+    if (*p90 > 0) return 4 * *p90;
+    return *std::max_element(sample.begin(), sample.end());
+}
+
+}  // namespace
+
+struct CollideEngine::Impl {
+    int threads = 0;
+    int max_contacts = 1;
+    bool use_reference = false;
+    std::vector<Lane> lanes;
+    std::vector<dGeomID> list;
+    std::vector<GeomInfo> infos;
+    std::vector<std::uint32_t> small, big;
+    CellGrid grid;
+    std::vector<GridEntry> big_entries;
+    std::vector<PrimData> big_prims;
+    std::vector<DeferredPair> pending;
+    PhaseTimes times;
+
+    int team_size() const { return threads > 0 ? threads : default_threads(); }
+    Lane& lane() { return lanes[static_cast<std::size_t>(thread_index())]; }
+
+    void start(int max, int team);
+    void emit(Lane& l, std::uint32_t fa, const PrimData& pa, std::uint32_t fb, const PrimData& pb);
+    void consider(Lane& l, const GridEntry& a, const PrimData& pa, const GridEntry& b,
+                  const PrimData& pb);
+    void read_space(dSpaceID space);
+    void split_items();
+    void build_big();
+    void grid_pairs();
+    void grid_pairs_of(Lane& l, std::size_t a);
+    void big_pairs();
+    void space_internal(dSpaceID space, bool recurse);
+    void pair2(dGeomID g1, dGeomID g2);
+    void space_vs_geoms(dSpaceID space, const std::vector<dGeomID>& geoms, bool swap);
+    void drain_deferred();
+};
+
+void CollideEngine::Impl::start(int max, int team) {
+    max_contacts = max;
+    use_reference = false;
+    times = PhaseTimes{};
+    lanes.resize(static_cast<std::size_t>(team));
+    for (Lane& l : lanes) l.clear();
+}
+
+void CollideEngine::Impl::emit(Lane& l, std::uint32_t fa, const PrimData& pa, std::uint32_t fb,
+                               const PrimData& pb) {
+    if (fast_pair(fa, fb)) {
+        l.fast(pa, (fa & kSphere) != 0, pb, (fb & kSphere) != 0, max_contacts);
+    } else if (fa & fb & kSafe) {
+        l.generic(pa.geom, pb.geom, max_contacts);
+    } else {
+        l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
+    }
+}
+
+void CollideEngine::Impl::consider(Lane& l, const GridEntry& a, const PrimData& pa,
+                                   const GridEntry& b, const PrimData& pb) {
+    if (!aabb_overlap(a.aabb, b.aabb)) return;
+    if (a.body && a.body == b.body) return;
+    if (((a.flags | b.flags) & kCustomBits) && !body_and_bits_pass(infos[a.info], infos[b.info])) {
+        return;
+    }
+    emit(l, a.flags, pa, b.flags, pb);
+}
+
+void CollideEngine::Impl::read_space(dSpaceID space) {
+    list_space(space, list);
+    read_geoms(list, infos);
+    for (const GeomInfo& g : infos) {
+        if (g.flags & kUser) use_reference = true;
+    }
+}
+
+void CollideEngine::Impl::split_items() {
+    small.clear();
+    big.clear();
+    const double limit = big_threshold(infos);
+    for (std::size_t i = 0; i < infos.size(); ++i) {
+        const GeomInfo& g = infos[i];
+        if (!(g.flags & kEnabled)) continue;
+        const bool is_small = (g.flags & kFinite) && g.extent <= limit;
+        (is_small ? small : big).push_back(static_cast<std::uint32_t>(i));
+    }
+}
+
+void CollideEngine::Impl::build_big() {
+    big_entries.resize(big.size());
+    big_prims.resize(big.size());
+    for (std::size_t j = 0; j < big.size(); ++j) {
+        const GeomInfo& g = infos[big[j]];
+        GridEntry& e = big_entries[j];
+        std::copy(g.aabb, g.aabb + 6, e.aabb);
+        e.body = g.body;
+        e.info = big[j];
+        e.flags = g.flags;
+        big_prims[j] = g.prim;
+    }
+}
+
+// Pairs of sorted geom `a` with later geoms of its cell, the next cell in its
+// row, and the three-cell spans of the four forward rows.
+void CollideEngine::Impl::grid_pairs_of(Lane& l, std::size_t a) {
+    const GridEntry* e = grid.entries();
+    const PrimData* p = grid.prims();
+    const std::uint64_t k = grid.key(a);
+    std::uint32_t b0 = 0, b1 = 0;
+    grid.range(k, k + 1, b0, b1);
+    for (std::uint32_t b = static_cast<std::uint32_t>(a) + 1; b < b1; ++b) consider(l, e[a], p[a], e[b], p[b]);
+    for (int r = 0; r < 4; ++r) {
+        const std::uint64_t c = k + grid.row_offsets()[r];
+        grid.range(c - 1, c + 1, b0, b1);
+        for (std::uint32_t b = b0; b < b1; ++b) consider(l, e[a], p[a], e[b], p[b]);
+    }
+}
+
+void CollideEngine::Impl::grid_pairs() {
+    const long n = static_cast<long>(grid.size());
+    const long chunks = (n + kGridChunk - 1) / kGridChunk;
+#pragma omp taskloop grainsize(1)
+    for (long c = 0; c < chunks; ++c) {
+        Lane& l = lane();
+        const long end = std::min(n, (c + 1) * kGridChunk);
+        for (long a = c * kGridChunk; a < end; ++a) grid_pairs_of(l, static_cast<std::size_t>(a));
+    }
+}
+
+// Every small geom against every big one, then the big ones among themselves.
+void CollideEngine::Impl::big_pairs() {
+    if (big_entries.empty()) return;
+    const long n = static_cast<long>(grid.size());
+    const long chunks = (n + kScanChunk - 1) / kScanChunk;
+    const std::size_t nb = big_entries.size();
+#pragma omp taskloop grainsize(1)
+    for (long c = 0; c < chunks; ++c) {
+        Lane& l = lane();
+        const long end = std::min(n, (c + 1) * kScanChunk);
+        for (long a = c * kScanChunk; a < end; ++a) {
+            for (std::size_t j = 0; j < nb; ++j) {
+                consider(l, grid.entries()[a], grid.prims()[a], big_entries[j], big_prims[j]);
+            }
+        }
+    }
+    Lane& l = lane();
+    for (std::size_t i = 0; i < nb; ++i) {
+        for (std::size_t j = i + 1; j < nb; ++j) {
+            consider(l, big_entries[i], big_prims[i], big_entries[j], big_prims[j]);
+        }
+    }
+}
+
+// Pairs among the geoms of `space` (ODE's dSpaceCollide), then, if `recurse`,
+// the internal pairs of every nested space (as collide_space_reference does).
+void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
+    const double t0 = now();
+    read_space(space);
+    if (use_reference) return;
+    const double t1 = now();
+    split_items();
+    grid.build(infos, small);
+    build_big();
+    const double t2 = now();
+    grid_pairs();
+    big_pairs();
+    const double t3 = now();
+    times.read += t1 - t0;
+    times.build += t2 - t1;
+    times.pairs += t3 - t2;
+    if (!recurse) return;
+    std::vector<dSpaceID> nested;
+    for (const GeomInfo& g : infos) {
+        if (g.flags & kSpace) nested.push_back(reinterpret_cast<dSpaceID>(g.prim.geom));
+    }
+    for (dSpaceID s : nested) space_internal(s, true);
+}
+
+// The enabled geoms of `space` against each of `geoms` (ODE's collide2 of the
+// space with each geom). The callback order is (space geom, geom), or the
+// reverse when `swap`, as ODE's swap_callback gives it.
+void CollideEngine::Impl::space_vs_geoms(dSpaceID space, const std::vector<dGeomID>& geoms,
+                                         bool swap) {
+    std::vector<GeomInfo> others;
+    for (dGeomID g : geoms) {
+        dReal aabb[6];
+        dGeomGetAABB(g, aabb);  // serial: brings the AABB up to date
+        others.push_back(read_geom(g));
+    }
+    read_space(space);
+    if (use_reference) return;
+    const long n = static_cast<long>(infos.size());
+    const long chunks = (n + kScanChunk - 1) / kScanChunk;
+#pragma omp taskloop grainsize(1)
+    for (long c = 0; c < chunks; ++c) {
+        Lane& l = lane();
+        const long end = std::min(n, (c + 1) * kScanChunk);
+        for (long h = c * kScanChunk; h < end; ++h) {
+            const GeomInfo& a = infos[static_cast<std::size_t>(h)];
+            if (!(a.flags & kEnabled)) continue;
+            for (const GeomInfo& b : others) {
+                if (!ode_pair_filter(a, b)) continue;
+                if (swap) {
+                    emit(l, b.flags, b.prim, a.flags, a.prim);
+                } else {
+                    emit(l, a.flags, a.prim, b.flags, b.prim);
+                }
+            }
+        }
+    }
+}
+
+// ODE's dSpaceCollide2(g1, g2), reached from a near-callback or from collide2.
+void CollideEngine::Impl::pair2(dGeomID g1, dGeomID g2) {
+    dSpaceID s1 = dGeomIsSpace(g1) ? reinterpret_cast<dSpaceID>(g1) : nullptr;
+    dSpaceID s2 = dGeomIsSpace(g2) ? reinterpret_cast<dSpaceID>(g2) : nullptr;
+    if (s1 && s2 && dSpaceGetSublevel(s1) != dSpaceGetSublevel(s2)) {
+        if (dSpaceGetSublevel(s1) > dSpaceGetSublevel(s2)) s2 = nullptr; else s1 = nullptr;
+    }
+    if (s1 && s2) {
+        if (s1 == s2) return space_internal(s1, false);
+        std::vector<dGeomID> geoms;
+        if (dSpaceGetNumGeoms(s1) < dSpaceGetNumGeoms(s2)) {
+            list_space(s1, geoms);
+            dSpaceClean(s1);
+            return space_vs_geoms(s2, geoms, true);
+        }
+        list_space(s2, geoms);
+        dSpaceClean(s2);
+        return space_vs_geoms(s1, geoms, false);
+    }
+    if (s1) return space_vs_geoms(s1, {g2}, false);
+    if (s2) return space_vs_geoms(s2, {g1}, true);
+    dReal aabb[6];
+    dGeomGetAABB(g1, aabb);
+    dGeomGetAABB(g2, aabb);
+    const GeomInfo a = read_geom(g1), b = read_geom(g2);
+    if (ode_pair_filter(a, b)) lane().generic(g1, g2, max_contacts);
+}
+
+// Serial pass over the pairs the parallel passes set aside, until none is left
+// (a nested space pair may reveal more).
+void CollideEngine::Impl::drain_deferred() {
+    for (;;) {
+        pending.clear();
+        for (Lane& l : lanes) {
+            pending.insert(pending.end(), l.deferred.begin(), l.deferred.end());
+            l.deferred.clear();
+        }
+        if (pending.empty() || use_reference) return;
+        const std::vector<DeferredPair> work(pending);
+        for (const DeferredPair& d : work) {
+            if (dGeomIsSpace(d.a) || dGeomIsSpace(d.b)) {
+                pair2(d.a, d.b);
+            } else {
+                lane().generic(d.a, d.b, max_contacts);
+            }
+        }
+    }
+}
+
+CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) {}
+CollideEngine::~CollideEngine() = default;
+
+void CollideEngine::set_threads(int threads) { impl_->threads = std::max(0, threads); }
+int CollideEngine::threads() const { return impl_->team_size(); }
+const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
+
+void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
+    Impl& m = *impl_;
+    const int team = m.team_size();
+    m.start(max_contacts, team);
+    out.clear();
+    dSpaceClean(space);
+#pragma omp parallel num_threads(team) default(none) shared(m, space, out)
+#pragma omp single
+    {
+        m.space_internal(space, true);
+        const double t0 = now();
+        m.drain_deferred();
+        const double t1 = now();
+        if (!m.use_reference) merge_lanes(m.lanes, out);
+        m.times.deferred += t1 - t0;
+        m.times.merge += now() - t1;
+    }
+    if (m.use_reference) collide_space_reference(space, max_contacts, out);
+}
+
+void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out) {
+    Impl& m = *impl_;
+    const int team = m.team_size();
+    m.start(max_contacts, team);
+    out.clear();
+    dSpaceClean(space);
+    if (dGeomIsSpace(geom)) dSpaceClean(reinterpret_cast<dSpaceID>(geom));
+#pragma omp parallel num_threads(team) default(none) shared(m, geom, space, out)
+#pragma omp single
+    {
+        m.pair2(geom, reinterpret_cast<dGeomID>(space));
+        m.drain_deferred();
+        if (!m.use_reference) merge_lanes(m.lanes, out);
+    }
+    if (m.use_reference) collide2_reference(geom, space, max_contacts, out);
+}
+
+}  // namespace parode::omp

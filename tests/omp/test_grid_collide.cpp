@@ -1,0 +1,296 @@
+// The OpenMP collision engine against ODE's own dSpaceCollide/dSpaceCollide2
+// (collide_space_reference / collide2_reference on a hash space): same pairs,
+// same contacts, bit for bit, for 1 to 4 threads, on seeded random scenes with
+// every filter case, on the sphere prism, on a sparse scene, and through the
+// library entry points and the registry. The sphere fast paths are checked
+// against dCollide directly.
+// Trade-off: scenes are small (hundreds of geoms) to keep the suite fast; the
+// prism test adds a few thousand spheres for the grid's dense path.
+#include <gtest/gtest.h>
+#include <ode/ode.h>
+
+#include <cstring>
+#include <vector>
+
+#include "collide.hpp"
+#include "collide_bench.hpp"
+#include "contacts.hpp"
+#include "fast_pairs.hpp"
+#include "grid_collide.hpp"
+#include "parallel_collide.hpp"
+#include "random_scene.hpp"
+#include "register.hpp"
+
+namespace parode::test {
+namespace {
+
+constexpr int kMaxContacts = 8;
+
+bool same_bits(const dReal* a, const dReal* b, int n) {
+    return std::memcmp(a, b, sizeof(dReal) * static_cast<std::size_t>(n)) == 0;
+}
+
+// Every field of every contact, bitwise, plus the digest.
+void expect_identical(const ContactBuffer& ref, const ContactBuffer& got, const char* what) {
+    ASSERT_EQ(ref.size(), got.size()) << what;
+    EXPECT_EQ(contact_digest(ref), contact_digest(got)) << what;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+        const ContactRecord& a = ref.items()[i];
+        const ContactRecord& b = got.items()[i];
+        ASSERT_EQ(a.lo, b.lo) << what << " contact " << i;
+        ASSERT_EQ(a.hi, b.hi) << what << " contact " << i;
+        ASSERT_EQ(a.index, b.index) << what << " contact " << i;
+        ASSERT_TRUE(same_bits(a.geom.pos, b.geom.pos, 3)) << what << " contact " << i;
+        ASSERT_TRUE(same_bits(a.geom.normal, b.geom.normal, 3)) << what << " contact " << i;
+        ASSERT_TRUE(same_bits(&a.geom.depth, &b.geom.depth, 1)) << what << " contact " << i;
+        ASSERT_EQ(a.geom.g1, b.geom.g1) << what << " contact " << i;
+        ASSERT_EQ(a.geom.g2, b.geom.g2) << what << " contact " << i;
+        ASSERT_EQ(a.geom.side1, b.geom.side1) << what << " contact " << i;
+        ASSERT_EQ(a.geom.side2, b.geom.side2) << what << " contact " << i;
+    }
+}
+
+void expect_engine_matches(dSpaceID space, const char* what) {
+    ContactBuffer ref;
+    collide_space_reference(space, kMaxContacts, ref);
+    ASSERT_GT(ref.size(), 0u) << what << ": scene has no contacts, test would be vacuous";
+    for (int t = 1; t <= 4; ++t) {
+        omp::CollideEngine engine;
+        engine.set_threads(t);
+        ContactBuffer got;
+        engine.collide(space, kMaxContacts, got);
+        SCOPED_TRACE(testing::Message() << what << ", threads " << t);
+        expect_identical(ref, got, what);
+    }
+}
+
+class RandomScenes : public testing::TestWithParam<std::uint32_t> {};
+
+TEST_P(RandomScenes, CollideMatchesOdeHashSpace) {
+    RandomScene scene(GetParam(), SceneOptions{});
+    expect_engine_matches(scene.space(), "random scene");
+}
+
+TEST_P(RandomScenes, CollideWithoutSpecialsMatches) {
+    SceneOptions opt;
+    opt.special = false;
+    opt.nested = 0;
+    opt.geoms = 500;
+    RandomScene scene(GetParam() + 100, opt);
+    expect_engine_matches(scene.space(), "plain random scene");
+}
+
+TEST_P(RandomScenes, Collide2OfEachGeomMatches) {
+    SceneOptions opt;
+    opt.geoms = 150;
+    RandomScene scene(GetParam() + 200, opt);
+    const std::vector<dGeomID>& geoms = scene.geoms();
+    std::size_t touching = 0;
+    for (std::size_t i = 0; i < geoms.size(); i += 7) {
+        ContactBuffer ref;
+        collide2_reference(geoms[i], scene.space(), kMaxContacts, ref);
+        touching += ref.size();
+        for (int t = 1; t <= 4; ++t) {
+            omp::CollideEngine engine;
+            engine.set_threads(t);
+            ContactBuffer got;
+            engine.collide2(geoms[i], scene.space(), kMaxContacts, got);
+            SCOPED_TRACE(testing::Message() << "geom " << i << ", threads " << t);
+            expect_identical(ref, got, "collide2 geom");
+        }
+    }
+    EXPECT_GT(touching, 0u);
+}
+
+TEST_P(RandomScenes, Collide2OfSpaceMatches) {
+    RandomScene scene(GetParam() + 300, SceneOptions{});
+    ASSERT_NE(scene.nested(), nullptr);
+    // A small space against the big one, and the reverse argument order.
+    ContactBuffer ref, ref_rev;
+    collide2_reference(reinterpret_cast<dGeomID>(scene.nested()), scene.space(), kMaxContacts, ref);
+    collide2_reference(reinterpret_cast<dGeomID>(scene.space()), scene.nested(), kMaxContacts, ref_rev);
+    ASSERT_GT(ref.size(), 0u);
+    for (int t = 1; t <= 4; ++t) {
+        omp::CollideEngine engine;
+        engine.set_threads(t);
+        ContactBuffer got;
+        engine.collide2(reinterpret_cast<dGeomID>(scene.nested()), scene.space(), kMaxContacts, got);
+        expect_identical(ref, got, "collide2 nested->top");
+        engine.collide2(reinterpret_cast<dGeomID>(scene.space()), scene.nested(), kMaxContacts, got);
+        expect_identical(ref_rev, got, "collide2 top->nested");
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, RandomScenes, testing::Values(1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u));
+
+TEST(GridCollide, SpherePrismMatches) {
+    SpherePrism prism(12, 0.5, 0.01, 42, dHashSpaceClass);
+    expect_engine_matches(prism.space(), "sphere prism");
+}
+
+TEST(GridCollide, SparseScatterMatches) {
+    // Few geoms over a huge region: the grid takes its sparse (sorted-key) path.
+    SceneOptions opt;
+    opt.geoms = 400;
+    opt.extent = 2000;
+    opt.special = false;
+    opt.nested = 0;
+    RandomScene scene(11, opt);
+    ContactBuffer ref;
+    collide_space_reference(scene.space(), kMaxContacts, ref);
+    for (int t = 1; t <= 4; ++t) {
+        omp::CollideEngine engine;
+        engine.set_threads(t);
+        ContactBuffer got;
+        engine.collide(scene.space(), kMaxContacts, got);
+        expect_identical(ref, got, "sparse scatter");
+    }
+}
+
+TEST(GridCollide, RepeatedCallsAndMovedGeomsMatch) {
+    RandomScene scene(21, SceneOptions{});
+    omp::CollideEngine engine;
+    engine.set_threads(3);
+    for (int step = 0; step < 3; ++step) {
+        for (std::size_t i = 0; i < scene.geoms().size(); i += 5) {
+            dGeomID g = scene.geoms()[i];
+            if (dGeomGetClass(g) == dPlaneClass) continue;
+            const dReal* p = dGeomGetPosition(g);
+            dBodyID b = dGeomGetBody(g);
+            if (b) {
+                dBodySetPosition(b, p[0] + 0.1, p[1] - 0.05, p[2]);
+            } else {
+                dGeomSetPosition(g, p[0] + 0.1, p[1] - 0.05, p[2]);
+            }
+        }
+        ContactBuffer ref, got;
+        collide_space_reference(scene.space(), kMaxContacts, ref);
+        engine.collide(scene.space(), kMaxContacts, got);
+        expect_identical(ref, got, "after moving geoms");
+    }
+}
+
+TEST(GridCollide, MaxContactsIsRespected) {
+    RandomScene scene(31, SceneOptions{});
+    for (int max : {1, 2, 4}) {
+        ContactBuffer ref, got;
+        collide_space_reference(scene.space(), max, ref);
+        collide(scene.space(), max, got, 2);
+        expect_identical(ref, got, "max contacts");
+    }
+}
+
+TEST(FastPairs, SphereSphereAndSpherePlaneEqualDCollide) {
+    dSpaceID space = dSimpleSpaceCreate(nullptr);
+    std::vector<dGeomID> spheres;
+    std::uint64_t s = 5;
+    auto rnd = [&s] {
+        s = s * 6364136223846793005ull + 1442695040888963407ull;
+        return static_cast<double>(s >> 11) / 9007199254740992.0;
+    };
+    for (int i = 0; i < 400; ++i) {
+        dGeomID g = dCreateSphere(space, 0.3 + 0.4 * rnd());
+        dGeomSetPosition(g, 3 * rnd(), 3 * rnd(), 3 * rnd());
+        set_geom_id(g, static_cast<std::uint32_t>(i));
+        spheres.push_back(g);
+    }
+    dGeomSetPosition(spheres[1], 0, 0, 0);  // coincident centres: ODE's d <= 0 branch
+    dGeomSetPosition(spheres[2], 0, 0, 0);
+    dGeomID plane_lo = dCreatePlane(space, 0.2, 0.3, 0.9, 0.7);  // normalised by ODE
+    dGeomID plane_hi = dCreatePlane(space, 0, 0, 1, 1.2);
+    set_geom_id(plane_lo, 0);  // lower id than every sphere but sphere 0: reversed call
+    set_geom_id(spheres[0], 1000);
+    set_geom_id(plane_hi, 5000);
+    std::vector<omp::PrimData> prim;
+    auto data = [](dGeomID g) {
+        omp::PrimData p{g, geom_id(g), 0, {0, 0, 0, 0}};
+        if (dGeomGetClass(g) == dSphereClass) {
+            const dReal* pos = dGeomGetPosition(g);
+            for (int k = 0; k < 3; ++k) p.p[k] = pos[k];
+            p.p[3] = dGeomSphereGetRadius(g);
+        } else {
+            dGeomPlaneGetParams(g, p.p);
+        }
+        return p;
+    };
+    std::vector<dGeomID> all = spheres;
+    all.push_back(plane_lo);
+    all.push_back(plane_hi);
+    std::size_t compared = 0;
+    for (std::size_t i = 0; i < all.size(); ++i) {
+        for (std::size_t j = i + 1; j < all.size(); ++j) {
+            const bool si = dGeomGetClass(all[i]) == dSphereClass;
+            const bool sj = dGeomGetClass(all[j]) == dSphereClass;
+            if (!si && !sj) continue;
+            ContactBuffer ref, got;
+            ref.collide_pair(all[i], all[j], 4);
+            omp::append_fast_pair(data(all[i]), si, data(all[j]), sj, 4, got.items());
+            expect_identical(ref, got, "fast pair");
+            compared += ref.size();
+        }
+    }
+    EXPECT_GT(compared, 100u);
+    dSpaceDestroy(space);
+}
+
+TEST(LibraryApi, CallbackSeesCanonicalPairs) {
+    RandomScene scene(41, SceneOptions{});
+    ContactBuffer ref;
+    collide_space_reference(scene.space(), kMaxContacts, ref);
+    ContactBuffer seen;
+    auto cb = [](void* data, dGeomID g1, dGeomID g2, const dContactGeom* c, int n) {
+        auto* out = static_cast<ContactBuffer*>(data);
+        for (int k = 0; k < n; ++k) {
+            out->items().push_back(ContactRecord{geom_id(g1), geom_id(g2),
+                                                 static_cast<std::uint32_t>(k), c[k]});
+        }
+    };
+    collide_space(scene.space(), kMaxContacts, &seen, cb, 2);
+    expect_identical(ref, seen, "callback");
+    ContactBuffer ref2, seen2;
+    collide2_reference(scene.geoms()[3], scene.space(), kMaxContacts, ref2);
+    collide_space2(scene.geoms()[3], scene.space(), kMaxContacts, &seen2, cb, 2);
+    expect_identical(ref2, seen2, "callback collide2");
+}
+
+TEST(LibraryApi, RegistryGridBackendMatches) {
+    omp::register_backends();
+    auto grid = BackendRegistry::instance().make("grid");
+    EXPECT_EQ(grid->name(), "grid");
+    RandomScene scene(51, SceneOptions{});
+    ContactBuffer ref, got;
+    collide_space_reference(scene.space(), kMaxContacts, ref);
+    grid->set_threads(2);
+    grid->collide(scene.space(), kMaxContacts, got);
+    expect_identical(ref, got, "registry grid");
+}
+
+TEST(LibraryApi, BenchReportsReferenceDigest) {
+    omp::register_backends();
+    SpherePrism prism(6, 0.5, 0.01, 3, dHashSpaceClass);
+    ContactBuffer ref;
+    collide_space_reference(prism.space(), kMaxContacts, ref);
+    const auto results =
+        omp::bench_collide(prism.space(), {"ode-hash", "ode-sap", "grid"}, {1, 2}, kMaxContacts, 3);
+    ASSERT_EQ(results.size(), 4u);
+    for (const auto& r : results) {
+        EXPECT_EQ(r.contacts, ref.size()) << r.backend;
+        EXPECT_EQ(r.digest, contact_digest(ref)) << r.backend << " threads " << r.threads;
+        EXPECT_GT(r.median_s, 0.0);
+    }
+    ContactBuffer after;
+    collide_space_reference(prism.space(), kMaxContacts, after);  // geoms are back home
+    EXPECT_EQ(contact_digest(after), contact_digest(ref));
+    EXPECT_EQ(dSpaceGetClass(prism.space()), dHashSpaceClass);
+}
+
+}  // namespace
+}  // namespace parode::test
+
+int main(int argc, char** argv) {
+    dInitODE2(0);
+    testing::InitGoogleTest(&argc, argv);
+    const int rc = RUN_ALL_TESTS();
+    dCloseODE();
+    return rc;
+}
