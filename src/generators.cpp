@@ -13,6 +13,21 @@ void prism_dims(long count, long dims[3]) {
     dims[2] = (count + side * side - 1) / (side * side);
 }
 
+namespace {
+
+int catom_material(const Node& t, const Scene& sc) {
+    if (!t.has("material")) return 0;
+    const std::string m = t.string("material", "");
+    std::string list;
+    for (std::size_t i = 0; i < sc.materials.size(); ++i) {
+        if (sc.materials[i].name == m) return static_cast<int>(i);
+        list += (list.empty() ? "" : ", ") + sc.materials[i].name;
+    }
+    t.fail("material", "the name of a material (" + list + ")");
+}
+
+}  // namespace
+
 void read_catoms(const Node& root, Scene& sc) {
     if (!root.has("catoms")) return;
     const Node t = root.at("catoms");
@@ -25,13 +40,7 @@ void read_catoms(const Node& root, Scene& sc) {
     proto.shape.kind = ShapeKind::Sphere;
     proto.shape.radius = t.number("radius", 0.5, 1e-9);
     proto.mass = t.number("mass", 1.0, 1e-12);
-    proto.material = 0;
-    if (t.has("material")) {
-        const std::string m = t.string("material", "");
-        proto.material = -1;
-        for (std::size_t i = 0; i < sc.materials.size(); ++i) if (sc.materials[i].name == m) proto.material = static_cast<int>(i);
-        if (proto.material < 0) t.fail("material", "the name of a material");
-    }
+    proto.material = catom_material(t, sc);
     proto.velocity = t.vec3("velocity", proto.velocity);
     const double r = proto.shape.radius;
     const double spacing = t.number("spacing", 2 * r, 1e-9);
@@ -69,6 +78,30 @@ void layout_cube8(MagnetModel& m) {
     }
 }
 
+// "catoms are bodies 1 to 8": generated catoms are contiguous, after the [[bodies]].
+std::string catom_range(const Scene& sc) {
+    long first = -1, last = -1;
+    for (std::size_t i = 0; i < sc.bodies.size(); ++i) {
+        if (!sc.bodies[i].catom) continue;
+        if (first < 0) first = static_cast<long>(i);
+        last = static_cast<long>(i);
+    }
+    if (first < 0) return "this scene has no catoms";
+    return "catoms are bodies " + std::to_string(first) + " to " + std::to_string(last);
+}
+
+void read_magnets_off(const Node& off, Scene& sc) {
+    for (std::size_t i = 0; i < off.array_size(); ++i) {
+        const toml::value& v = off.value().as_array()[i];
+        const long n = v.is_integer() ? static_cast<long>(v.as_integer()) : -1;
+        if (n < 0 || n >= static_cast<long>(sc.bodies.size()) || !sc.bodies[n].catom) {
+            throw SceneError(where(v) + ": key '" + off.index(i).path() + "': expected the id of a catom body (" +
+                             catom_range(sc) + "), got " + describe(v));
+        }
+        sc.bodies[n].magnets = false;
+    }
+}
+
 }  // namespace
 
 void read_magnets(const Node& root, Scene& sc) {
@@ -84,16 +117,7 @@ void read_magnets(const Node& root, Scene& sc) {
     m.softening = t.number("softening", m.softening, 1e-9);
     m.cutoff = t.number("cutoff", m.cutoff, 1e-9);
     for (auto& b : sc.bodies) b.magnets = b.catom && m.enabled;
-    if (!t.has("off")) return;
-    const Node off = t.at("off");
-    for (std::size_t i = 0; i < off.array_size(); ++i) {
-        const toml::value& v = off.value().as_array()[i];
-        const long n = v.is_integer() ? static_cast<long>(v.as_integer()) : -1;
-        if (n < 0 || n >= static_cast<long>(sc.bodies.size()) || !sc.bodies[n].catom) {
-            throw SceneError(where(v) + ": key 'magnets.off': expected catom body ids, got " + describe(v));
-        }
-        sc.bodies[n].magnets = false;
-    }
+    if (t.has("off")) read_magnets_off(t.at("off"), sc);
 }
 
 }  // namespace parode

@@ -280,7 +280,9 @@ Scene load_scene_text(const std::string& text, const std::string& name,
     try {
         data = toml::parse(in, name);
     } catch (const toml::syntax_error& e) {
-        throw SceneError(name + ": TOML syntax error:\n" + std::string(e.what()));
+        const std::size_t line = e.location().line();
+        const std::string at = line == 0 ? name : name + ":" + std::to_string(line);
+        throw SceneError(at + ": TOML syntax error:\n" + std::string(e.what()));
     }
     return build_scene(data, name, overrides);
 }

@@ -1,7 +1,11 @@
 // Validating TOML reader (see toml_reader.hpp).
 #include "toml_reader.hpp"
 
+#include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -9,14 +13,18 @@ namespace parode {
 
 std::string where(const toml::value& v) {
     const toml::source_location loc = v.location();
-    if (loc.line() == 0) return loc.file_name();
+    // A `--set` value has no line of its own: its origin names it fully.
+    if (loc.line() == 0 || loc.file_name().rfind("--set ", 0) == 0) return loc.file_name();
     return loc.file_name() + ":" + std::to_string(loc.line());
 }
 
 std::string describe(const toml::value& v) {
     switch (v.type()) {
         case toml::value_t::table: return "a table";
-        case toml::value_t::array: return "an array";
+        case toml::value_t::array: {
+            const std::size_t n = v.as_array().size();
+            return "an array of " + std::to_string(n) + (n == 1 ? " element" : " elements");
+        }
         case toml::value_t::string: return "the string \"" + v.as_string().str + "\"";
         case toml::value_t::boolean: return v.as_boolean() ? "true" : "false";
         default: {
@@ -149,13 +157,22 @@ Vec3 Node::vec3(const std::string& key, const Vec3& def) const {
     return out;
 }
 
+// "file:line: TOML syntax error:" and toml11's own excerpt of the file.
+static std::string syntax_error_text(const std::string& name, const toml::syntax_error& e) {
+    const std::size_t line = e.location().line();
+    const std::string at = line == 0 ? name : name + ":" + std::to_string(line);
+    return at + ": TOML syntax error:\n" + e.what();
+}
+
 toml::value parse_toml_file(const std::string& path) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw SceneError(path + ": cannot open scene file (it is a directory)");
     std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path + ": cannot open scene file");
+    if (!in) throw SceneError(path + ": cannot open scene file (" + std::strerror(errno) + ")");
     try {
         return toml::parse(in, path);
     } catch (const toml::syntax_error& e) {
-        throw SceneError(path + ": TOML syntax error:\n" + std::string(e.what()));
+        throw SceneError(syntax_error_text(path, e));
     }
 }
 
@@ -179,9 +196,24 @@ static toml::value parse_override_value(const std::string& rhs, const std::strin
         std::istringstream in("v = " + rhs);
         return toml::find(toml::parse(in, origin), "v");
     } catch (const std::exception&) {
+        if (rhs.find_first_of("\"\\\n") != std::string::npos) {
+            throw SceneError(origin + ": the value is not valid TOML (quote strings: key=\"text\")");
+        }
         std::istringstream in("v = \"" + rhs + "\"");  // a bare word is a string
         return toml::find(toml::parse(in, origin), "v");
     }
+}
+
+// The element of an array named by a `--set` key segment ("bodies.0.mass").
+static toml::value& override_element(toml::value& arr, const std::string& seg, const std::string& origin) {
+    const bool digits = seg.size() <= 18 && seg.find_first_not_of("0123456789") == std::string::npos;
+    if (!digits) throw SceneError(origin + ": '" + seg + "' is not an array index");
+    const std::size_t k = std::stoul(seg);
+    if (k >= arr.as_array().size()) {
+        throw SceneError(origin + ": index " + seg + " out of range (the array has " +
+                         std::to_string(arr.as_array().size()) + " elements)");
+    }
+    return arr.as_array()[k];
 }
 
 void apply_override(toml::value& root, const std::string& assignment) {
@@ -191,18 +223,16 @@ void apply_override(toml::value& root, const std::string& assignment) {
         throw SceneError(origin + ": expected key=value (for example catoms.count=8000)");
     }
     const std::vector<std::string> parts = split_dots(assignment.substr(0, eq));
+    for (const auto& p : parts) if (p.empty()) throw SceneError(origin + ": empty key segment");
     toml::value* cur = &root;
     for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
-        if (parts[i].empty()) throw SceneError(origin + ": empty key segment");
         if (cur->is_array()) {
-            const std::size_t k = std::stoul(parts[i]);
-            if (k >= cur->as_array().size()) throw SceneError(origin + ": index out of range");
-            cur = &cur->as_array()[k];
+            cur = &override_element(*cur, parts[i], origin);
             continue;
         }
         if (!cur->is_table()) throw SceneError(origin + ": '" + parts[i] + "' is not a table");
         toml::value& next = cur->as_table()[parts[i]];
-        if (next.is_uninitialized()) next = toml::table{};
+        if (next.is_uninitialized()) next = parse_override_value("{}", origin);  // errors name the --set
         cur = &next;
     }
     if (!cur->is_table()) throw SceneError(origin + ": the parent of '" + parts.back() + "' is not a table");

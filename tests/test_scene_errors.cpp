@@ -1,0 +1,226 @@
+// Scene-file validation: every malformed file in tests/data/bad/ must throw
+// SceneError naming the file, the line, the dotted key and what was expected;
+// `--set` overrides go through the same checks; a good override builds the prism.
+// Trade-off: expected messages are matched as substrings written out in the
+// table below, so rewording a message means editing this table, but a vague or
+// misplaced message fails here instead of reaching a user.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "scene_file.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSourceDir = PARODE_SOURCE_DIR;
+const std::string kBadDir = kSourceDir + "/tests/data/bad/";
+const std::string kTennis = kSourceDir + "/jobs/scenes/tennis.toml";
+
+struct BadCase {
+    const char* file;      // in tests/data/bad/
+    int line;              // 0: the message has no meaningful line
+    const char* key;       // dotted key, quoted in the message; "" when none
+    const char* expected;  // what the message says was expected
+    const char* extra;     // a further substring ("" for none)
+};
+
+const BadCase kBadCases[] = {
+    {"syntax_error.toml", 3, "", "TOML syntax error", "name = \"syntax"},
+    {"duplicate_key.toml", 5, "", "TOML syntax error", "value (\"dt\") already exists"},
+    {"no_scene.toml", 0, "scene", "missing required key", ""},
+    {"no_name.toml", 2, "scene.name", "expected a non-empty string", ""},
+    {"dt_string.toml", 4, "scene.dt", "expected a number in [1e-09, 1]", "got the string \"fast\""},
+    {"bad_dt.toml", 7, "scene.dt", "expected a number in [1e-09, 1]", "got -0.005"},
+    {"zero_catoms.toml", 6, "catoms.count", "expected an integer in [1, 100000000]", "got 0"},
+    {"count_float.toml", 6, "catoms.count", "expected an integer in [1, 100000000]", "got 8.5"},
+    {"bad_erp.toml", 6, "solver.erp", "expected a number in [0, 1]", "got 2"},
+    {"typo_key.toml", 6, "catoms.cuont",
+     "(expected one of: count, radius, mass, layout, spacing, jitter, material, base, velocity)", "unknown key"},
+    {"unknown_material.toml", 10, "bodies[0].material", "expected the name of a material (ball)",
+     "got the string \"steel\""},
+    {"unknown_catom_material.toml", 10, "catoms.material", "expected the name of a material (ball)",
+     "got the string \"rubber\""},
+    {"materials_table.toml", 5, "materials", "expected an array", "got a table"},
+    {"joint_unknown_body.toml", 10, "joints[0].bodies", "expected the name of a body or \"world\"",
+     "got the string \"ghost\""},
+    {"gravity_2.toml", 4, "scene.gravity", "expected an array of 3 numbers", "got an array of 2 elements"},
+    {"bad_shape.toml", 7, "bodies[0].shape", "expected one of \"sphere\", \"box\", \"capsule\", \"cylinder\"",
+     "got the string \"cube\""},
+    {"bad_joint_param.toml", 11, "joints[0].params.lo_stp", "expected one of: lo_stop, hi_stop, vel",
+     "unknown joint parameter"},
+    {"bad_stepper.toml", 6, "solver.stepper", "expected one of \"quick\", \"world\"", "got the string \"fast\""},
+    {"magnets_off_noncatom.toml", 13, "magnets.off[1]", "expected the id of a catom body (catoms are bodies 1 to 8)",
+     "got 0"},
+    {"duplicate_body.toml", 9, "bodies[1].name", "expected a name not used by another body",
+     "got the string \"a\""},
+    {"no_bodies.toml", 0, "", "the scene has no bodies (add [[bodies]] or [catoms])", ""},
+};
+
+// The SceneError message of loading `path`, or a failure when it does not throw one.
+std::string scene_error(const std::string& path, const std::vector<std::string>& sets = {}) {
+    try {
+        const parode::Scene sc = parode::load_scene(path, sets);
+        ADD_FAILURE() << path << " loaded without error (" << sc.bodies.size() << " bodies)";
+    } catch (const parode::SceneError& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << path << " threw something other than SceneError: " << e.what();
+    }
+    return "";
+}
+
+class BadScene : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BadScene, MessageNamesFileLineKeyAndExpectation) {
+    const BadCase& c = GetParam();
+    const std::string msg = scene_error(kBadDir + c.file);
+    SCOPED_TRACE("message: " + msg);
+    EXPECT_NE(msg.find(c.file), std::string::npos) << "file name missing";
+    if (c.line > 0) {
+        const std::string at = std::string(c.file) + ":" + std::to_string(c.line) + ":";
+        EXPECT_NE(msg.find(at), std::string::npos) << "expected location " << at;
+    }
+    if (*c.key) {
+        EXPECT_NE(msg.find("'" + std::string(c.key) + "'"), std::string::npos) << "key missing";
+    }
+    EXPECT_NE(msg.find(c.expected), std::string::npos) << "expected-value text missing";
+    if (*c.extra) {
+        EXPECT_NE(msg.find(c.extra), std::string::npos) << "missing: " << c.extra;
+    }
+}
+
+std::string case_name(const ::testing::TestParamInfo<BadCase>& info) {
+    std::string n = fs::path(info.param.file).stem().string();
+    for (char& ch : n) if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+    return n;
+}
+
+INSTANTIATE_TEST_SUITE_P(BadFiles, BadScene, ::testing::ValuesIn(kBadCases), case_name);
+
+TEST(BadSceneTable, EveryFileInTheFolderHasACase) {
+    std::set<std::string> listed;
+    for (const BadCase& c : kBadCases) listed.insert(c.file);
+    std::set<std::string> on_disk;
+    for (const auto& e : fs::directory_iterator(kBadDir)) {
+        if (e.path().extension() == ".toml") on_disk.insert(e.path().filename().string());
+    }
+    EXPECT_EQ(on_disk, listed);
+    EXPECT_GE(on_disk.size(), 12u);
+}
+
+TEST(SceneOverride, BadValueNamesKeyAndSet) {
+    const std::string msg = scene_error(kTennis, {"catoms.count=0"});
+    EXPECT_NE(msg.find("--set catoms.count=0"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("'catoms.count'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("expected an integer in [1, 100000000], got 0"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find("tennis.toml"), std::string::npos) << "the value came from --set, not the file: " << msg;
+}
+
+struct BadSet {
+    const char* assignment;
+    const char* expected;
+};
+
+class BadOverride : public ::testing::TestWithParam<BadSet> {};
+
+TEST_P(BadOverride, IsASceneErrorNamingTheSet) {
+    const BadSet& c = GetParam();
+    const std::string msg = scene_error(kTennis, {c.assignment});
+    EXPECT_NE(msg.find(std::string("--set ") + c.assignment), std::string::npos) << msg;
+    EXPECT_NE(msg.find(c.expected), std::string::npos) << msg;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Sets, BadOverride,
+    ::testing::Values(BadSet{"catoms.count", "expected key=value"},
+                      BadSet{"scene.dt=fast", "key 'scene.dt': expected a number in [1e-09, 1], got the string \"fast\""},
+                      BadSet{"catoms.cuont=8", "unknown key 'catoms.cuont'"},
+                      BadSet{"foo.bar=1", "unknown key 'foo'"},
+                      BadSet{"scene.=1", "empty key segment"},
+                      BadSet{"materials.x.mu=1", "'x' is not an array index"},
+                      BadSet{"materials.99999999999999999999999.mu=1", "is not an array index"},
+                      BadSet{"materials.5.mu=1", "index 5 out of range (the array has 1 elements)"},
+                      BadSet{"materials.0.mu=-1", "key 'materials[0].mu': expected a number >= 0, got -1"},
+                      BadSet{"scene.name=\"abc", "the value is not valid TOML"},
+                      BadSet{"scene.name.x=1", "the parent of 'x' is not a table"}));
+
+TEST(SceneOverride, LaterSetWins) {
+    const parode::Scene sc = parode::load_scene(kTennis, {"catoms.count=0", "catoms.count=8"});
+    EXPECT_EQ(sc.bodies.size(), 8u);
+}
+
+TEST(SceneOverride, BareWordIsAString) {
+    const parode::Scene sc = parode::load_scene(kTennis, {"scene.name=renamed", "catoms.count=8"});
+    EXPECT_EQ(sc.name, "renamed");
+}
+
+// catoms.count=27 -> a 3 x 3 x 3 prism of touching balls (radius 0.5, spacing 1)
+// centred on x = y = 0 and standing on z = 0, each moved by at most the jitter.
+TEST(SceneOverride, CountBuildsAPrism) {
+    const parode::Scene sc = parode::load_scene(kTennis, {"catoms.count=27"});
+    ASSERT_EQ(sc.bodies.size(), 27u);
+    const double r = 0.5, jitter = 0.01 * r, tol = jitter + 1e-12;
+    std::set<std::tuple<int, int, int>> cells;
+    double zmin = 1e9;
+    for (const auto& b : sc.bodies) {
+        EXPECT_TRUE(b.catom);
+        EXPECT_EQ(b.shape.kind, parode::ShapeKind::Sphere);
+        EXPECT_DOUBLE_EQ(b.shape.radius, r);
+        const double gx = std::round(b.position[0]), gy = std::round(b.position[1]);
+        const double gz = std::round(b.position[2] - r);
+        EXPECT_NEAR(b.position[0], gx, tol);
+        EXPECT_NEAR(b.position[1], gy, tol);
+        EXPECT_NEAR(b.position[2], gz + r, tol);
+        cells.insert({static_cast<int>(gx), static_cast<int>(gy), static_cast<int>(gz)});
+        zmin = std::min(zmin, b.position[2]);
+    }
+    EXPECT_EQ(cells.size(), 27u) << "every lattice cell holds exactly one ball";
+    for (const auto& [i, j, k] : cells) {
+        EXPECT_TRUE(i >= -1 && i <= 1 && j >= -1 && j <= 1 && k >= 0 && k <= 2) << i << " " << j << " " << k;
+    }
+    EXPECT_NEAR(zmin, r, tol) << "the lowest catom sits on the floor";
+}
+
+TEST(SceneFile, MissingFileIsAClearError) {
+    const std::string path = kSourceDir + "/tests/data/no_such_scene.toml";
+    const std::string msg = scene_error(path);
+    EXPECT_NE(msg.find(path + ": cannot open scene file"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("No such file or directory"), std::string::npos) << msg;
+}
+
+TEST(SceneFile, DirectoryIsAClearError) {
+    const std::string msg = scene_error(kBadDir);
+    EXPECT_NE(msg.find("cannot open scene file (it is a directory)"), std::string::npos) << msg;
+}
+
+TEST(SceneText, SyntaxErrorHasNameAndLine) {
+    try {
+        parode::load_scene_text("[scene]\nname = \"x\"\ndt = 0.1 0.2\n", "inline.toml");
+        FAIL() << "no error";
+    } catch (const parode::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("inline.toml:3: TOML syntax error"), std::string::npos) << e.what();
+    }
+}
+
+// The shipped scenes load: the checks above do not reject good files.
+TEST(SceneFile, ExampleScenesLoad) {
+    const parode::Scene tennis = parode::load_scene(kTennis);
+    EXPECT_EQ(tennis.name, "tennis");
+    EXPECT_EQ(tennis.bodies.size(), 1000u);
+    const parode::Scene magnetic = parode::load_scene(kSourceDir + "/jobs/scenes/magnetic-tennis.toml");
+    EXPECT_TRUE(magnetic.magnets.enabled);
+    const parode::Scene buggy = parode::load_scene(kSourceDir + "/jobs/scenes/buggy.toml");
+    EXPECT_EQ(buggy.bodies.size(), 4u);
+    EXPECT_EQ(buggy.joints.size(), 3u);
+}
+
+}  // namespace
