@@ -134,17 +134,22 @@ int bench_collide(const BenchArgs& a) {
 
 void add_bench(CLI::App& app, BenchArgs& a, std::function<int()>& action) {
     CLI::App* b = app.add_subcommand("bench", "Benchmark a stage of several implementations side by side");
-    b->add_option("what", a.what, "Stage to benchmark")->required()->check(CLI::IsMember({"collide"}));
+    b->add_option("what", a.what, "collide: the collide stage on identical states; step: whole steps")
+        ->required()->check(CLI::IsMember({"collide", "step"}));
     b->add_option("scene", a.scene, "Scene file (TOML)")->required();
     b->add_option("--set", a.sets, "Override a scene value, key=value; repeatable")->allow_extra_args(false);
     a.backends = {"ode-hash", "ode-sap"};
-    b->add_option("--backends", a.backends, "Variants, NAME or NAME:THREADS; the first is the baseline and drives the scene")
+    b->add_option("--backends", a.backends,
+                  "Variants; collide: NAME[:THREADS], the first drives the scene; step: COLLIDE[/SOLVER][:THREADS]; "
+                  "the first is the baseline")
         ->delimiter(',')->capture_default_str();
     b->add_option("--steps", a.steps, "Steps to advance the scene (samples along the way)")->check(CLI::NonNegativeNumber);
-    b->add_option("--every", a.every, "Sample every N steps")->check(CLI::PositiveNumber)->capture_default_str();
+    b->add_option("--reference-iterations", a.reference_iterations, "step: also run ode-hash/ode with this many iterations as the error reference");
+    b->add_option("--error-at", a.error_at, "step: steps after which the RMS position error is taken")->capture_default_str();
+    b->add_option("--every", a.every, "collide: sample every N steps; step: steps per turn")->check(CLI::PositiveNumber)->capture_default_str();
     b->add_option("--repeats", a.repeats, "Timings per variant per sample")->check(CLI::PositiveNumber)->capture_default_str();
     b->add_option("--csv", a.csv, "Also write the table as CSV");
-    b->callback([&] { action = [&] { return bench_collide(a); }; });
+    b->callback([&] { action = [&] { return a.what == "step" ? bench_step(a) : bench_collide(a); }; });
 }
 
 }  // namespace parode::cli

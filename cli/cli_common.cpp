@@ -1,10 +1,13 @@
 // Command-line helpers (see cli_common.hpp).
 #include "cli_common.hpp"
 
+#include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 
 #include "collide.hpp"
+#include "error_metrics.hpp"
 #include "pipeline.hpp"
 #include "scene_file.hpp"
 
@@ -25,6 +28,12 @@ std::string backend_list() {
     return out;
 }
 
+std::string solver_list() {
+    std::string out;
+    for (const auto& n : SolverRegistry::instance().names()) out += (out.empty() ? "" : ", ") + n;
+    return out;
+}
+
 int guarded(const std::function<int()>& action) {
     try {
         return action ? action() : 0;
@@ -41,6 +50,72 @@ int guarded(const std::function<int()>& action) {
         std::cerr << "parode: " << e.what() << "\n";
         return kExitOutput;
     }
+}
+
+int checks_exit_code(const nlohmann::json& report) {
+    if (!report.contains("checks") || report["checks"]["passed"].get<bool>()) return 0;
+    std::cerr << "parode: checks failed:";
+    for (const auto& i : report["checks"]["items"]) {
+        if (i["passed"].get<bool>()) continue;
+        std::cerr << " " << i["name"].get<std::string>() << " = " << i["value"].get<double>() << " (bound "
+                  << i["bound"].get<double>() << ");";
+    }
+    std::cerr << "\n";
+    return kExitChecks;
+}
+
+namespace {
+
+nlohmann::json read_json_report(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw std::invalid_argument(path + ": cannot open the reference");
+    try {
+        return nlohmann::json::parse(in);
+    } catch (const nlohmann::json::exception&) {
+        throw std::invalid_argument(path + ": the reference is neither a parode trajectory (--trajectory) "
+                                    "nor a JSON run report (--report)");
+    }
+}
+
+double end_time(const nlohmann::json& r) { return r.at("steps").get<double>() * r.at("dt").get<double>(); }
+
+// Final observables of two run reports that end at the same simulated time.
+nlohmann::json compare_reports(const nlohmann::json& run, const nlohmann::json& ref, const std::string& path) {
+    const double t = end_time(run), tr = end_time(ref);
+    if (std::fabs(t - tr) > 1e-6 * std::min(run["dt"].get<double>(), ref["dt"].get<double>())) {
+        throw std::invalid_argument(path + ": the reference ends at t = " + std::to_string(tr) + " s, the run at " +
+                                    std::to_string(t) + " s");
+    }
+    const auto& a = run["diagnostics"];
+    const auto& b = ref["diagnostics"];
+    auto obs = [](double x, double y) { return nlohmann::json{{"run", x}, {"reference", y}, {"diff", x - y}}; };
+    const double ea = a["energy"]["total"].get<double>(), eb = b["energy"]["total"].get<double>();
+    return {{"reference", {{"scene", ref["scene"]}, {"dt", ref["dt"]}, {"steps", ref["steps"]}, {"solver", ref["solver"]}}},
+            {"final_only", true},
+            {"time", t},
+            {"state_hash_equal", run["state_hash"] == ref["state_hash"]},
+            {"penetration", {{"max", a["max_penetration"]}, {"mean", a["mean_penetration"]},
+                             {"reference_max", b["max_penetration"]}, {"reference_mean", b["mean_penetration"]}}},
+            {"energy", {{"final", ea}, {"reference_final", eb}, {"final_diff", ea - eb}}},
+            {"observables", {{"com_height", obs(a["com_height"].get<double>(), b["com_height"].get<double>())}}}};
+}
+
+}  // namespace
+
+nlohmann::json compare_with_reference(const parode::Trajectory& run, const std::string& path,
+                                      const nlohmann::json& run_report) {
+    if (is_trajectory_file(path)) {
+        try {
+            return compare_trajectories(run, read_trajectory(path));
+        } catch (const std::runtime_error& e) {
+            throw std::invalid_argument(path + ": " + e.what());
+        }
+    }
+    const nlohmann::json ref = read_json_report(path);
+    if (!ref.contains("diagnostics") || !ref.contains("steps")) {
+        throw std::invalid_argument(path + ": a JSON file but not a parode run report (no 'diagnostics')");
+    }
+    return compare_reports(run_report, ref, path);
 }
 
 }  // namespace parode::cli

@@ -1,16 +1,19 @@
 // The `parode` command line: `parode run SCENE ...` (and further subcommands).
 // Exit codes: 0 success, 1 simulation failed (NaN, runaway), 2 bad command
-// line, 3 bad scene file, 4 cannot write an output file.
+// line, 3 bad scene file, 4 cannot write an output file, 5 a [checks]
+// criterion of the scene failed.
 // Trade-off: CLI11 handles parsing and help; each subcommand is a function of
 // its own options so new ones do not grow main().
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
 #include "cli_common.hpp"
+#include "error_metrics.hpp"
 #include "pipeline.hpp"
 #include "register.hpp"
 #include "report.hpp"
@@ -22,12 +25,17 @@ namespace {
 struct RunArgs {
     std::string scene;
     int steps = -1;
+    double duration = -1;
     int threads = 0;
     std::string collide = "ode-hash";
+    std::string solver = "ode";
     std::string report;
     std::vector<std::string> sets;
     std::string snapshot;
     int snapshot_every = 0;
+    std::string trajectory;
+    std::string reference;
+    std::string dump;
     bool quiet = false;
 };
 
@@ -52,15 +60,31 @@ private:
     int last_ = -1;
 };
 
+int step_count(const RunArgs& a, const Scene& scene) {
+    if (a.duration >= 0) return static_cast<int>(std::llround(a.duration / scene.dt));
+    return a.steps >= 0 ? a.steps : scene.steps;
+}
+
+// The `error` block of a run against --reference, and the optional trajectory file.
+void add_error(const RunArgs& a, const Pipeline& pipeline, nlohmann::json& report) {
+    if (!a.trajectory.empty()) write_trajectory(a.trajectory, *pipeline.trajectory());
+    if (a.reference.empty()) return;
+    report["error"] = compare_with_reference(*pipeline.trajectory(), a.reference, report);
+    report["error"]["reference_file"] = a.reference;
+}
+
 int run_command(const RunArgs& a) {
     const Scene scene = load_scene(a.scene, a.sets);
-    const int steps = a.steps >= 0 ? a.steps : scene.steps;
+    const int steps = step_count(a, scene);
     RunOptions opt;
     opt.collide = a.collide;
+    opt.solver = a.solver;
     opt.threads = resolve_threads(a.threads);
     parode::omp::set_threads(opt.threads);
     opt.snapshot_path = a.snapshot;
     opt.snapshot_every = a.snapshot.empty() ? 0 : std::max(1, a.snapshot_every);
+    opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
+    opt.dump_path = a.dump;
     Pipeline pipeline(scene, opt);
     Progress progress(steps, !a.quiet && isatty(STDERR_FILENO));
     const auto t0 = std::chrono::steady_clock::now();
@@ -70,23 +94,33 @@ int run_command(const RunArgs& a) {
     }
     pipeline.finish();
     RunInfo info{a.scene, opt.threads, 1, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
-    const nlohmann::json report = make_report(scene, pipeline, info);
+    nlohmann::json report = make_report(scene, pipeline, info);
+    add_error(a, pipeline, report);
     if (!a.quiet) print_summary(std::cout, report);
+    if (!a.quiet && report.contains("error")) print_error_summary(std::cout, report["error"]);
     if (!a.report.empty()) write_report(a.report, report);
-    return 0;
+    return checks_exit_code(report);
 }
 
 void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
     CLI::App* run = app.add_subcommand("run", "Simulate a scene and report speed and diagnostics");
     run->add_option("scene", a.scene, "Scene file (TOML), e.g. jobs/scenes/tennis.toml")->required();
     run->add_option("--steps", a.steps, "Number of steps (default: the scene's scene.steps)")->check(CLI::NonNegativeNumber);
+    run->add_option("--duration", a.duration, "Simulated seconds (steps = duration / dt; overrides --steps)")
+        ->check(CLI::NonNegativeNumber);
     run->add_option("--threads", a.threads, "Threads (default: OMP_NUM_THREADS, else 1)")->check(CLI::NonNegativeNumber);
     run->add_option("--collide", a.collide, "Collision backend: " + backend_list())->capture_default_str();
+    run->add_option("--solver", a.solver, "Solver: " + solver_list())->capture_default_str();
     run->add_option("--report", a.report, "Write the JSON run report to this file");
     run->add_option("--set", a.sets, "Override a scene value, key=value (e.g. catoms.count=8000); repeatable")
         ->allow_extra_args(false);
     run->add_option("--snapshot", a.snapshot, "Write body poses as CSV to this file");
     run->add_option("--snapshot-every", a.snapshot_every, "Steps between snapshots (default 1 when --snapshot)");
+    run->add_option("--trajectory", a.trajectory, "Write body positions at observed steps (a reference for --reference)");
+    run->add_option("--reference", a.reference,
+                    "Compare with a reference run: its --trajectory file (full error metrics) or its --report JSON "
+                    "(final observables only); adds `error` to the report");
+    run->add_option("--dump-on-failure", a.dump, "When the guard stops the run, write the last good state (CSV) here");
     run->add_flag("--quiet,-q", a.quiet, "No summary table and no progress bar");
     run->callback([&] { action = [&] { return run_command(a); }; });
 }
@@ -101,9 +135,11 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     RunArgs run_args;
     BenchArgs bench_args;
+    CompareArgs compare_args;
     std::function<int()> action;
     add_run(app, run_args, action);
     add_bench(app, bench_args, action);
+    add_compare(app, compare_args, action);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

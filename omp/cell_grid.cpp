@@ -2,9 +2,11 @@
 // (with a small margin against rounding), integer cell keys of the AABBs' minimum
 // corners, a stable counting sort (dense) or comparison sort (sparse), and the
 // compact sorted entries.
-// Trade-off: the sort is serial; it is a few passes over 8-byte keys, small next
-// to the narrowphase, and it keeps the layout identical for every thread count.
+// Trade-off: keys and entries are computed in tasks but the counting sort is
+// serial: two passes over 8-byte keys, small next to the narrowphase, and the
+// layout comes out identical for every thread count.
 #include "cell_grid.hpp"
+#include "task_split.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,21 +17,56 @@ namespace {
 constexpr double kMargin = 1.0 + 1e-4;       // cell size over largest extent
 constexpr double kMaxCells = 1152921504606846976.0;  // 2^60
 
-}  // namespace
-
-void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
-                            const std::vector<std::uint32_t>& items) {
+// Minimum corners' bounds and the largest extent of a block of geoms.
+struct Bounds {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
     double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     double ext = 0;
-    for (std::uint32_t i : items) {
-        const GeomInfo& g = infos[i];
+    void add(const GeomInfo& g) {
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min(lo[k], g.aabb[2 * k]);
             hi[k] = std::max(hi[k], g.aabb[2 * k]);
         }
         ext = std::max(ext, g.extent);
     }
+    void add(const Bounds& b) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], b.lo[k]);
+            hi[k] = std::max(hi[k], b.hi[k]);
+        }
+        ext = std::max(ext, b.ext);
+    }
+};
+
+constexpr std::size_t kBlock = 4096;  // geoms per partial bound
+
+Bounds item_bounds(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
+    const std::size_t n = items.size();
+    const std::size_t nblocks = (n + kBlock - 1) / kBlock;
+    std::vector<Bounds> part(nblocks);
+    Bounds* out = part.data();
+    const GeomInfo* info = infos.data();
+    const std::uint32_t* item = items.data();
+#pragma omp taskloop num_tasks(task_count(nblocks, 1)) default(none) firstprivate(out, info, item, n, nblocks)
+    for (std::size_t b = 0; b < nblocks; ++b) {
+        for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) out[b].add(info[item[j]]);
+    }
+    Bounds all;
+    for (const Bounds& b : part) all.add(b);
+    return all;
+}
+
+}  // namespace
+
+void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
+                            const std::vector<std::uint32_t>& items) {
+    const Bounds bounds = item_bounds(infos, items);
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = bounds.lo[k];
+        hi[k] = bounds.hi[k];
+    }
+    const double ext = bounds.ext;
     h_ = ext > 0 ? ext * kMargin : 1.0;
     if (items.empty()) std::fill(lo, lo + 3, 0.0), std::fill(hi, hi + 3, 0.0);
     for (;;) {
@@ -50,19 +87,24 @@ void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
     rows_[3] = dims_[0] * dims_[1] + dims_[0];
 }
 
+std::uint64_t CellGrid::cell_key(const GeomInfo& g) const {
+    std::uint64_t c[3];
+    for (int k = 0; k < 3; ++k) {
+        const double x = std::floor((g.aabb[2 * k] - origin_[k]) * inv_h_);
+        c[k] = std::min(static_cast<std::uint64_t>(x < 0 ? 0 : x) + 1, dims_[k] - 2);
+    }
+    return (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
+}
+
 void CellGrid::compute_keys(const std::vector<GeomInfo>& infos,
                             const std::vector<std::uint32_t>& items) {
+    // Plain pointers: a task would copy a referenced vector (firstprivate).
     const std::size_t n = items.size();
     raw_keys_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) {
-        const GeomInfo& g = infos[items[j]];
-        std::uint64_t c[3];
-        for (int k = 0; k < 3; ++k) {
-            const double x = std::floor((g.aabb[2 * k] - origin_[k]) * inv_h_);
-            c[k] = std::min(static_cast<std::uint64_t>(x < 0 ? 0 : x) + 1, dims_[k] - 2);
-        }
-        raw_keys_[j] = (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
-    }
+    const GeomInfo* info = infos.data();
+    const std::uint32_t* item = items.data();
+#pragma omp taskloop num_tasks(task_count(n, 2048))
+    for (std::size_t j = 0; j < n; ++j) raw_keys_[j] = cell_key(info[item[j]]);
 }
 
 void CellGrid::sort_dense(std::size_t ncells) {
@@ -101,13 +143,16 @@ void CellGrid::fill_entries(const std::vector<GeomInfo>& infos,
     entries_.resize(n);
     prims_.resize(n);
     keys_.resize(n);
+    const GeomInfo* info = infos.data();
+    const std::uint32_t* item = items.data();
+#pragma omp taskloop num_tasks(task_count(n, 2048))
     for (std::size_t s = 0; s < n; ++s) {
         const std::uint32_t j = order_[s];
-        const GeomInfo& g = infos[items[j]];
+        const GeomInfo& g = info[item[j]];
         GridEntry& e = entries_[s];
         std::copy(g.aabb, g.aabb + 6, e.aabb);
         e.body = g.body;
-        e.info = items[j];
+        e.info = item[j];
         e.flags = g.flags;
         prims_[s] = g.prim;
         keys_[s] = raw_keys_[j];

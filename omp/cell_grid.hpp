@@ -56,6 +56,7 @@ private:
     void sparse_range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin,
                       std::uint32_t& end) const;
     void choose_cells(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    std::uint64_t cell_key(const GeomInfo& g) const;
     void compute_keys(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
     void sort_dense(std::size_t ncells);
     void sort_sparse();

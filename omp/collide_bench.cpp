@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 
 #include "collide.hpp"
@@ -91,15 +92,39 @@ double median(std::vector<double> v) {
     return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
+// Seconds for a fixed amount of square roots spread over `threads` threads.
+double compute_seconds(int threads) {
+    const long n = 40000000;
+    double sum = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(+ : sum)
+    for (long i = 0; i < n; ++i) sum += std::sqrt(static_cast<double>(i));
+    const auto t1 = std::chrono::steady_clock::now();
+    return sum < 0 ? 0 : std::chrono::duration<double>(t1 - t0).count();
+}
+
 }  // namespace
+
+double machine_speedup(int threads) {
+    double one = HUGE_VAL, many = HUGE_VAL;
+    for (int rep = 0; rep < 3; ++rep) {
+        one = std::min(one, compute_seconds(1));
+        many = std::min(many, compute_seconds(std::max(1, threads)));
+    }
+    return one / many;
+}
 
 std::vector<BenchResult> bench_collide(dSpaceID space, const std::vector<std::string>& backends,
                                        const std::vector<int>& threads, int max_contacts,
                                        int repetitions) {
     std::vector<Config> configs = make_configs(backends, threads);
     SpaceShuttle shuttle(space);
+    const std::size_t k = configs.size();
     for (int rep = -1; rep < repetitions; ++rep) {
-        for (Config& c : configs) {
+        // Each repetition starts with the next configuration, so none always
+        // runs right after another one's (cache-warming) call.
+        for (std::size_t j = 0; j < k; ++j) {
+            Config& c = configs[(j + static_cast<std::size_t>(rep + 1)) % k];
             // Backends of this library accept any space: no move for them.
             const bool any_space = uses_threads(c.backend->name());
             dSpaceID s = any_space ? shuttle.current() : shuttle.for_kind(c.backend->space_kind());

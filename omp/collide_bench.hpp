@@ -1,6 +1,7 @@
 // Timing of collision backends on one identical state: every (backend, threads)
 // configuration collides the same geoms, configurations alternate within each
-// repetition (so drift in machine state hits all alike), and the median per
+// repetition, in an order rotated from one repetition to the next (so drift in
+// machine state and cache warmth hit all alike), and the median per
 // configuration is reported with the contact count and digest of its result.
 // ODE's own backends need their geoms in a space of their kind: the top-level
 // geoms of `space` are moved (untimed) into a scratch space of the kind each
@@ -32,5 +33,11 @@ struct BenchResult {
 std::vector<BenchResult> bench_collide(dSpaceID space, const std::vector<std::string>& backends,
                                        const std::vector<int>& threads, int max_contacts,
                                        int repetitions);
+
+// What the machine itself gives: the speedup of a compute-bound loop (no
+// memory traffic) on `threads` threads over one. On a shared or oversubscribed
+// machine it falls below `threads`, and scaling results should be read
+// against it.
+double machine_speedup(int threads);
 
 }  // namespace parode::omp

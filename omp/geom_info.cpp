@@ -4,6 +4,7 @@
 // Trade-off: every getter is a call into ODE; they run once per geom per call,
 // spread over tasks, instead of once per candidate pair.
 #include "geom_info.hpp"
+#include "task_split.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -90,13 +91,47 @@ void list_space(dSpaceID space, std::vector<dGeomID>& out) {
     for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = dSpaceGetGeom(space, i);
 }
 
-void read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out) {
-    const long n = static_cast<long>(geoms.size());
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out) {
+    const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
     const dGeomID* src = geoms.data();
-#pragma omp taskloop grainsize(1024) default(none) firstprivate(dst, src, n)
-    for (long i = 0; i < n; ++i) dst[i] = read_geom(src[i]);
+    std::uint32_t any = 0;
+#pragma omp taskloop num_tasks(task_count(n, 1024)) default(none) firstprivate(dst, src, n) reduction(| : any)
+    for (std::size_t i = 0; i < n; ++i) {
+        dst[i] = read_geom(src[i]);
+        any |= dst[i].flags;
+    }
+    return any;
+}
+
+std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
+                                   std::vector<GeomInfo>& out) {
+    const std::size_t n = static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+    geoms.resize(n);
+    out.resize(n);
+    const std::size_t blocks = task_count(n, 1024);
+    std::vector<std::uint32_t> any(blocks, 0);
+    dGeomID* src = geoms.data();
+    GeomInfo* dst = out.data();
+    std::uint32_t* flags = any.data();
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t begin = task_begin(n, blocks, b), end = task_begin(n, blocks, b + 1);
+        for (std::size_t i = begin; i < end; ++i) src[i] = dSpaceGetGeom(space, static_cast<int>(i));
+#pragma omp task default(none) firstprivate(src, dst, flags, b, begin, end)
+        {
+            std::uint32_t f = 0;
+            for (std::size_t i = begin; i < end; ++i) {
+                dst[i] = read_geom(src[i]);
+                f |= dst[i].flags;
+            }
+            flags[b] = f;
+        }
+    }
+#pragma omp taskwait
+    std::uint32_t all = 0;
+    for (std::uint32_t f : any) all |= f;
+    return all;
 }
 
 }  // namespace parode::omp

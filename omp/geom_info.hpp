@@ -44,7 +44,14 @@ GeomInfo read_geom(dGeomID g);
 void list_space(dSpaceID space, std::vector<dGeomID>& out);
 
 // read_geom over a list, as OpenMP tasks when called inside a parallel region.
-void read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out);
+// Returns the union of all geoms' flags.
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out);
+
+// list_space and read_geoms overlapped: the calling thread walks ODE's list
+// (serial, one cache miss per geom in large spaces) and hands each listed
+// block to a task that reads it while the walk goes on.
+std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
+                                   std::vector<GeomInfo>& out);
 
 // ODE's closed AABB overlap test (disjoint only if strictly separated).
 // Evaluated without branches (bitwise or of the six comparisons): the outcome

@@ -11,6 +11,7 @@
 // Trade-off: deferred pairs run on one thread; they are rare in the scenes this
 // engine targets (primitives), and that keeps trimesh/heightfield safe.
 #include "grid_collide.hpp"
+#include "task_split.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -26,8 +27,8 @@
 namespace parode::omp {
 namespace {
 
-constexpr long kGridChunk = 256;  // sorted geoms per task in the grid pass
-constexpr long kScanChunk = 512;  // geoms per task in scans against a few geoms
+constexpr std::size_t kGridChunk = 256;  // sorted geoms per task in the grid pass
+constexpr std::size_t kScanChunk = 512;  // geoms per task in scans against a few geoms
 
 bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
     return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
@@ -79,10 +80,12 @@ struct CollideEngine::Impl {
     std::vector<dGeomID> list;
     std::vector<GeomInfo> infos;
     std::vector<std::uint32_t> small, big;
+    std::vector<std::uint8_t> bucket;
     CellGrid grid;
     std::vector<GridEntry> big_entries;
     std::vector<PrimData> big_prims;
     std::vector<DeferredPair> pending;
+    MergeScratch merge;
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
@@ -134,22 +137,27 @@ void CollideEngine::Impl::consider(Lane& l, const GridEntry& a, const PrimData& 
 }
 
 void CollideEngine::Impl::read_space(dSpaceID space) {
-    list_space(space, list);
-    read_geoms(list, infos);
-    for (const GeomInfo& g : infos) {
-        if (g.flags & kUser) use_reference = true;
-    }
+    if (read_space_pipelined(space, list, infos) & kUser) use_reference = true;
 }
 
+// Marks each geom skipped (0), small (1) or big (2) in tasks, then lists them.
 void CollideEngine::Impl::split_items() {
+    const double limit = big_threshold(infos);
+    const std::size_t n = infos.size();
+    bucket.resize(n);
+    const GeomInfo* info = infos.data();
+    std::uint8_t* mark = bucket.data();
+#pragma omp taskloop num_tasks(task_count(n, 4096)) default(none) firstprivate(info, mark, n, limit)
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t f = info[i].flags;
+        const bool is_small = (f & kFinite) && info[i].extent <= limit;
+        mark[i] = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
+    }
     small.clear();
     big.clear();
-    const double limit = big_threshold(infos);
-    for (std::size_t i = 0; i < infos.size(); ++i) {
-        const GeomInfo& g = infos[i];
-        if (!(g.flags & kEnabled)) continue;
-        const bool is_small = (g.flags & kFinite) && g.extent <= limit;
-        (is_small ? small : big).push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t i = 0; i < n; ++i) {
+        if (mark[i] == 1) small.push_back(static_cast<std::uint32_t>(i));
+        if (mark[i] == 2) big.push_back(static_cast<std::uint32_t>(i));
     }
 }
 
@@ -184,27 +192,27 @@ void CollideEngine::Impl::grid_pairs_of(Lane& l, std::size_t a) {
 }
 
 void CollideEngine::Impl::grid_pairs() {
-    const long n = static_cast<long>(grid.size());
-    const long chunks = (n + kGridChunk - 1) / kGridChunk;
-#pragma omp taskloop grainsize(1)
-    for (long c = 0; c < chunks; ++c) {
+    const std::size_t n = grid.size();
+    const std::size_t chunks = (n + kGridChunk - 1) / kGridChunk;
+#pragma omp taskloop num_tasks(task_count(chunks, 1))
+    for (std::size_t c = 0; c < chunks; ++c) {
         Lane& l = lane();
-        const long end = std::min(n, (c + 1) * kGridChunk);
-        for (long a = c * kGridChunk; a < end; ++a) grid_pairs_of(l, static_cast<std::size_t>(a));
+        const std::size_t end = std::min(n, (c + 1) * kGridChunk);
+        for (std::size_t a = c * kGridChunk; a < end; ++a) grid_pairs_of(l, a);
     }
 }
 
 // Every small geom against every big one, then the big ones among themselves.
 void CollideEngine::Impl::big_pairs() {
     if (big_entries.empty()) return;
-    const long n = static_cast<long>(grid.size());
-    const long chunks = (n + kScanChunk - 1) / kScanChunk;
+    const std::size_t n = grid.size();
+    const std::size_t chunks = (n + kScanChunk - 1) / kScanChunk;
     const std::size_t nb = big_entries.size();
-#pragma omp taskloop grainsize(1)
-    for (long c = 0; c < chunks; ++c) {
+#pragma omp taskloop num_tasks(task_count(chunks, 1))
+    for (std::size_t c = 0; c < chunks; ++c) {
         Lane& l = lane();
-        const long end = std::min(n, (c + 1) * kScanChunk);
-        for (long a = c * kScanChunk; a < end; ++a) {
+        const std::size_t end = std::min(n, (c + 1) * kScanChunk);
+        for (std::size_t a = c * kScanChunk; a < end; ++a) {
             for (std::size_t j = 0; j < nb; ++j) {
                 consider(l, grid.entries()[a], grid.prims()[a], big_entries[j], big_prims[j]);
             }
@@ -256,16 +264,19 @@ void CollideEngine::Impl::space_vs_geoms(dSpaceID space, const std::vector<dGeom
     }
     read_space(space);
     if (use_reference) return;
-    const long n = static_cast<long>(infos.size());
-    const long chunks = (n + kScanChunk - 1) / kScanChunk;
-#pragma omp taskloop grainsize(1)
-    for (long c = 0; c < chunks; ++c) {
+    const GeomInfo* other = others.data();  // a task would copy the vector itself
+    const std::size_t nothers = others.size();
+    const std::size_t n = infos.size();
+    const std::size_t chunks = (n + kScanChunk - 1) / kScanChunk;
+#pragma omp taskloop num_tasks(task_count(chunks, 1))
+    for (std::size_t c = 0; c < chunks; ++c) {
         Lane& l = lane();
-        const long end = std::min(n, (c + 1) * kScanChunk);
-        for (long h = c * kScanChunk; h < end; ++h) {
-            const GeomInfo& a = infos[static_cast<std::size_t>(h)];
+        const std::size_t end = std::min(n, (c + 1) * kScanChunk);
+        for (std::size_t h = c * kScanChunk; h < end; ++h) {
+            const GeomInfo& a = infos[h];
             if (!(a.flags & kEnabled)) continue;
-            for (const GeomInfo& b : others) {
+            for (std::size_t j = 0; j < nothers; ++j) {
+                const GeomInfo& b = other[j];
                 if (!ode_pair_filter(a, b)) continue;
                 if (swap) {
                     emit(l, b.flags, b.prim, a.flags, a.prim);
@@ -315,6 +326,9 @@ void CollideEngine::Impl::drain_deferred() {
             l.deferred.clear();
         }
         if (pending.empty() || use_reference) return;
+        // Trimesh and heightfield colliders use per-thread data in ODE builds
+        // with thread-local storage; this thread may not be the caller's.
+        dAllocateODEDataForThread(dAllocateMaskAll);
         const std::vector<DeferredPair> work(pending);
         for (const DeferredPair& d : work) {
             if (dGeomIsSpace(d.a) || dGeomIsSpace(d.b)) {
@@ -337,7 +351,6 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
     Impl& m = *impl_;
     const int team = m.team_size();
     m.start(max_contacts, team);
-    out.clear();
     dSpaceClean(space);
 #pragma omp parallel num_threads(team) default(none) shared(m, space, out)
 #pragma omp single
@@ -346,7 +359,7 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
         const double t0 = now();
         m.drain_deferred();
         const double t1 = now();
-        if (!m.use_reference) merge_lanes(m.lanes, out);
+        if (!m.use_reference) merge_lanes(m.lanes, out, m.merge);
         m.times.deferred += t1 - t0;
         m.times.merge += now() - t1;
     }
@@ -357,7 +370,6 @@ void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, Con
     Impl& m = *impl_;
     const int team = m.team_size();
     m.start(max_contacts, team);
-    out.clear();
     dSpaceClean(space);
     if (dGeomIsSpace(geom)) dSpaceClean(reinterpret_cast<dSpaceID>(geom));
 #pragma omp parallel num_threads(team) default(none) shared(m, geom, space, out)
@@ -365,7 +377,7 @@ void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, Con
     {
         m.pair2(geom, reinterpret_cast<dGeomID>(space));
         m.drain_deferred();
-        if (!m.use_reference) merge_lanes(m.lanes, out);
+        if (!m.use_reference) merge_lanes(m.lanes, out, m.merge);
     }
     if (m.use_reference) collide2_reference(geom, space, max_contacts, out);
 }

@@ -13,6 +13,11 @@
 // Pairs involving trimeshes, heightfields, convexes, geom transforms or nested
 // spaces are deferred and run serially; a space holding a user-defined geom
 // class (whose AABB test the public API cannot call) is handed to ODE whole.
+// One corner of ODE is order-dependent and not reproduced: two sibling nested
+// spaces with equal geom counts and equal sublevels meet through the geoms of
+// whichever one ODE's traversal names second, and those geoms are not checked
+// for being enabled; the results differ only if that space holds disabled or
+// zero-sized geoms (give the spaces different sublevels to avoid it).
 //
 // Trade-off: one more copy of every AABB per call (cheap, sequential) buys a
 // broadphase that touches ODE's scattered geom memory once per geom and runs

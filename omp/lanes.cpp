@@ -1,36 +1,95 @@
-// Lanes and the canonical merge (see lanes.hpp).
-// Trade-off: the counting sort needs an array as long as the largest lower id;
-// when ids are sparse (largest id far above the number of runs) a comparison
-// sort is used instead. Pairs reported twice (only possible through unusual
-// collide2 arguments) fall back to sorting the contact records, which is what
-// the reference does.
+// Lanes and the canonical merge (see lanes.hpp). The merge is a parallel
+// bucket sort: runs are spread over blocks of the lower-id range (a histogram
+// per lane, a prefix over lanes x blocks, a scatter per lane), each block is
+// sorted by (lo, hi) on its own, then blocks are copied out at their offsets.
+// Only the prefix sums (lanes x blocks entries) are serial.
+// Trade-off: blocks split the id range evenly, so a scene whose ids crowd in
+// one part of the range puts more work in a few blocks; that costs balance in
+// the sort, never correctness. Pairs reported twice (only possible through
+// unusual collide2 arguments) fall back to sorting the contact records, as the
+// reference does.
 #include "lanes.hpp"
+#include "task_split.hpp"
 
 #include <algorithm>
 
 namespace parode::omp {
 namespace {
 
-struct RunRef {
-    std::uint32_t lo, hi, lane, begin, count;
-};
+constexpr std::size_t kRunsPerBlock = 256;
+constexpr std::size_t kMaxBlocks = 1024;
 
 bool run_less(const RunRef& a, const RunRef& b) {
     if (a.lo != b.lo) return a.lo < b.lo;
     return a.hi < b.hi;
 }
 
-void gather_runs(const std::vector<Lane>& lanes, std::vector<RunRef>& refs) {
-    refs.clear();
-    for (std::size_t l = 0; l < lanes.size(); ++l) {
-        for (const PairRun& r : lanes[l].runs) {
-            refs.push_back(RunRef{r.lo, r.hi, static_cast<std::uint32_t>(l), r.begin, r.count});
+struct BlockMap {
+    std::uint64_t blocks;
+    std::uint64_t span;  // max lo + 1
+    std::size_t of(std::uint32_t lo) const {
+        return static_cast<std::size_t>(static_cast<std::uint64_t>(lo) * blocks / span);
+    }
+};
+
+BlockMap block_map(const std::vector<Lane>& lanes) {
+    std::size_t total = 0;
+    std::uint32_t max_lo = 0;
+    for (const Lane& l : lanes) {
+        total += l.runs.size();
+        for (const PairRun& r : l.runs) max_lo = std::max(max_lo, r.lo);
+    }
+    const std::size_t blocks = std::clamp<std::size_t>(total / kRunsPerBlock, 1, kMaxBlocks);
+    return BlockMap{blocks, static_cast<std::uint64_t>(max_lo) + 1};
+}
+
+// Per lane and block, how many runs (counts[lane * blocks + block]).
+void count_blocks(const std::vector<Lane>& lanes, const BlockMap& map,
+                  std::vector<std::size_t>& counts) {
+    const std::size_t nl = lanes.size(), nb = map.blocks;
+    counts.assign(nl * nb, 0);
+    const Lane* lane = lanes.data();
+    std::size_t* count = counts.data();
+#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, count, nl, nb, map)
+    for (std::size_t l = 0; l < nl; ++l) {
+        for (const PairRun& r : lane[l].runs) ++count[l * nb + map.of(r.lo)];
+    }
+}
+
+// Exclusive prefix over blocks (outer) and lanes (inner): where each lane's
+// runs of each block start; block_start[b] where block b starts.
+void block_offsets(std::size_t nl, std::size_t nb, std::vector<std::size_t>& counts,
+                   std::vector<std::size_t>& block_start) {
+    block_start.assign(nb + 1, 0);
+    std::size_t acc = 0;
+    for (std::size_t b = 0; b < nb; ++b) {
+        block_start[b] = acc;
+        for (std::size_t l = 0; l < nl; ++l) {
+            const std::size_t c = counts[l * nb + b];
+            counts[l * nb + b] = acc;
+            acc += c;
+        }
+    }
+    block_start[nb] = acc;
+}
+
+void scatter_runs(const std::vector<Lane>& lanes, const BlockMap& map,
+                  std::vector<std::size_t>& next, std::vector<RunRef>& refs) {
+    const std::size_t nl = lanes.size(), nb = map.blocks;
+    const Lane* lane = lanes.data();
+    std::size_t* pos = next.data();
+    RunRef* out = refs.data();
+#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, pos, out, nl, nb, map)
+    for (std::size_t l = 0; l < nl; ++l) {
+        for (const PairRun& r : lane[l].runs) {
+            out[pos[l * nb + map.of(r.lo)]++] =
+                RunRef{r.lo, r.hi, static_cast<std::uint32_t>(l), r.begin, r.count};
         }
     }
 }
 
-// Buckets hold a handful of runs (a geom's touching partners).
-void insertion_sort(RunRef* first, RunRef* last) {
+// Runs of one lower id are few (a geom's touching partners): insertion sort.
+void insertion_sort_hi(RunRef* first, RunRef* last) {
     for (RunRef* i = first + 1; i < last; ++i) {
         const RunRef v = *i;
         RunRef* j = i;
@@ -39,52 +98,76 @@ void insertion_sort(RunRef* first, RunRef* last) {
     }
 }
 
-// Counting sort on lo, then insertion sort by hi inside each lo bucket.
-void sort_runs_by_lo(std::vector<RunRef>& refs, std::uint32_t max_lo) {
-    std::vector<std::uint32_t> start(static_cast<std::size_t>(max_lo) + 2, 0);
-    for (const RunRef& r : refs) ++start[r.lo + 1];
+// Counting sort of a block on lo (its ids span a narrow range), then by hi.
+void sort_block(RunRef* first, RunRef* last) {
+    const std::size_t n = static_cast<std::size_t>(last - first);
+    if (n < 2) return;
+    std::uint32_t lo = first->lo, hi = first->lo;
+    for (const RunRef* r = first; r < last; ++r) {
+        lo = std::min(lo, r->lo);
+        hi = std::max(hi, r->lo);
+    }
+    if (hi - lo > 8 * n + 64) {
+        std::sort(first, last, run_less);
+        return;
+    }
+    std::vector<std::uint32_t> start(hi - lo + 2, 0);
+    for (const RunRef* r = first; r < last; ++r) ++start[r->lo - lo + 1];
     for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-    std::vector<RunRef> sorted(refs.size());
+    std::vector<RunRef> sorted(n);
     std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
-    for (const RunRef& r : refs) sorted[next[r.lo]++] = r;
+    for (const RunRef* r = first; r < last; ++r) sorted[next[r->lo - lo]++] = *r;
     for (std::size_t b = 0; b + 1 < start.size(); ++b) {
-        insertion_sort(sorted.data() + start[b], sorted.data() + start[b + 1]);
+        insertion_sort_hi(sorted.data() + start[b], sorted.data() + start[b + 1]);
     }
-    refs.swap(sorted);
+    std::copy(sorted.begin(), sorted.end(), first);
 }
 
-void sort_runs(std::vector<RunRef>& refs) {
-    std::uint32_t max_lo = 0;
-    for (const RunRef& r : refs) max_lo = std::max(max_lo, r.lo);
-    if (static_cast<std::size_t>(max_lo) <= 8 * refs.size() + 65536) {
-        sort_runs_by_lo(refs, max_lo);
-    } else {
-        std::sort(refs.begin(), refs.end(), run_less);
+// Sorts each block; records its contact count and whether a pair repeats.
+void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef>& refs,
+                 std::vector<std::size_t>& contacts, int& repeated) {
+    const std::size_t nb = block_start.size() - 1;
+    contacts.assign(nb + 1, 0);
+    const std::size_t* start = block_start.data();
+    RunRef* ref = refs.data();
+    std::size_t* count = contacts.data();
+    int rep = 0;
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(start, ref, count, nb) reduction(|| : rep)
+    for (std::size_t b = 0; b < nb; ++b) {
+        sort_block(ref + start[b], ref + start[b + 1]);
+        std::size_t c = 0;
+        for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
+            c += ref[i].count;
+            if (i > start[b] && ref[i].lo == ref[i - 1].lo && ref[i].hi == ref[i - 1].hi) rep = 1;
+        }
+        count[b] = c;
     }
+    repeated = rep;
 }
 
-bool has_duplicates(const std::vector<RunRef>& refs) {
-    for (std::size_t i = 1; i < refs.size(); ++i) {
-        if (refs[i].lo == refs[i - 1].lo && refs[i].hi == refs[i - 1].hi) return true;
+void copy_blocks(const std::vector<Lane>& lanes, const std::vector<std::size_t>& block_start,
+                 const std::vector<RunRef>& refs, std::vector<std::size_t>& contacts,
+                 ContactBuffer& out) {
+    const std::size_t nb = block_start.size() - 1;
+    std::size_t acc = 0;
+    for (std::size_t b = 0; b < nb; ++b) {
+        const std::size_t c = contacts[b];
+        contacts[b] = acc;
+        acc += c;
     }
-    return false;
-}
-
-void copy_runs(const std::vector<Lane>& lanes, const std::vector<RunRef>& refs,
-               ContactBuffer& out) {
-    std::vector<std::size_t> offset(refs.size() + 1, 0);
-    for (std::size_t i = 0; i < refs.size(); ++i) offset[i + 1] = offset[i] + refs[i].count;
-    out.items().resize(offset.back());
+    out.items().resize(acc);  // no clear first: kept elements need no zeroing
     ContactRecord* dst = out.items().data();
-    const RunRef* src = refs.data();
     const Lane* lane = lanes.data();
-    const std::size_t* off = offset.data();
-    const long n = static_cast<long>(refs.size());
-#pragma omp taskloop grainsize(4096) default(none) firstprivate(dst, src, lane, off, n)
-    for (long i = 0; i < n; ++i) {
-        const RunRef& r = src[i];
-        const ContactRecord* from = lane[r.lane].buf.items().data() + r.begin;
-        std::copy(from, from + r.count, dst + off[i]);
+    const RunRef* ref = refs.data();
+    const std::size_t* start = block_start.data();
+    const std::size_t* offset = contacts.data();
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, nb)
+    for (std::size_t b = 0; b < nb; ++b) {
+        ContactRecord* to = dst + offset[b];
+        for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
+            const ContactRecord* from = lane[ref[i].lane].buf.items().data() + ref[i].begin;
+            to = std::copy(from, from + ref[i].count, to);
+        }
     }
 }
 
@@ -109,13 +192,16 @@ void Lane::generic(dGeomID a, dGeomID b, int max_contacts) {
                            static_cast<std::uint32_t>(n)});
 }
 
-void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out) {
-    std::vector<RunRef> refs;
-    gather_runs(lanes, refs);
-    sort_runs(refs);
-    out.clear();
-    copy_runs(lanes, refs, out);
-    if (has_duplicates(refs)) out.sort_canonical();
+void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out, MergeScratch& m) {
+    const BlockMap map = block_map(lanes);
+    count_blocks(lanes, map, m.next);
+    block_offsets(lanes.size(), map.blocks, m.next, m.block_start);
+    m.refs.resize(m.block_start.back());
+    scatter_runs(lanes, map, m.next, m.refs);
+    int repeated = 0;
+    sort_blocks(m.block_start, m.refs, m.contacts, repeated);
+    copy_blocks(lanes, m.block_start, m.refs, m.contacts, out);
+    if (repeated) out.sort_canonical();
 }
 
 }  // namespace parode::omp

@@ -1,9 +1,9 @@
 // Per-thread output of the narrowphase ("lanes") and their merge into canonical
 // contact order. Each task appends to the lane of the thread running it; a pair's
 // contacts are one contiguous run, recorded as (lo id, hi id, where, how many).
-// The merge orders runs by (lo, hi) with a counting sort on the lower id (ids are
-// dense) and copies them out, so the result is independent of which thread
-// collided which pair.
+// The merge orders runs by (lo, hi) with a parallel bucket sort on the lower id
+// and copies them out, so the result is independent of which thread collided
+// which pair.
 // Trade-off: a run table beside the contacts (16 bytes per touching pair) avoids
 // sorting the 112-byte contact records themselves.
 #pragma once
@@ -43,8 +43,18 @@ struct alignas(64) Lane {
     void generic(dGeomID a, dGeomID b, int max_contacts);
 };
 
+struct RunRef {
+    std::uint32_t lo, hi, lane, begin, count;
+};
+
+// Work arrays of the merge, kept between calls so no call allocates afresh.
+struct MergeScratch {
+    std::vector<RunRef> refs;
+    std::vector<std::size_t> next, block_start, contacts;
+};
+
 // All lanes' contacts in canonical order, into `out` (overwritten). Call inside
 // a parallel region (copies run as tasks) or outside it (serially).
-void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out);
+void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out, MergeScratch& scratch);
 
 }  // namespace parode::omp

@@ -7,12 +7,13 @@
 #include "magnet_pass.hpp"
 
 #include "magnets.hpp"
+#include "register.hpp"
 
 namespace parode::omp {
 
 void gather_magnets_parallel(const MagnetField& field, std::vector<BodyWrench>& out) {
     const long n = static_cast<long>(field.members().size());
-#pragma omp parallel for schedule(dynamic, 128)
+#pragma omp parallel for schedule(dynamic, 128) if (n >= min_parallel(1024))
     for (long k = 0; k < n; ++k) out[static_cast<std::size_t>(k)] = field.gather(static_cast<std::size_t>(k));
 }
 

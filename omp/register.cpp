@@ -11,12 +11,19 @@
 #include "collide.hpp"
 #include "grid_collide.hpp"
 #include "magnet_pass.hpp"
+#include "parallel_solver.hpp"
+#include "solver.hpp"
 
 namespace parode::omp {
 
 void register_backends() {
     BackendRegistry::instance().add("grid", [] { return std::make_unique<GridBackend>(); });
     set_magnet_gather(&gather_magnets_parallel);
+    SolverRegistry::instance().add("parallel", [](const Scene& s) -> std::unique_ptr<SolverBackend> {
+        const std::string no = contact_solver_unsupported(s);
+        if (!no.empty()) return make_ode_solver(s, "parallel solver not used: " + no);
+        return std::make_unique<ParallelContactSolver>(s);
+    });
 }
 
 void set_threads(int threads) {
@@ -26,6 +33,13 @@ void set_threads(int threads) {
     (void)threads;
 #endif
 }
+
+namespace {
+long g_min_parallel = -1;
+}
+
+void set_min_parallel(long items) { g_min_parallel = items; }
+long min_parallel(long default_items) { return g_min_parallel >= 0 ? g_min_parallel : default_items; }
 
 int max_threads() {
 #ifdef _OPENMP

@@ -81,11 +81,12 @@ Diagnostics observe(const World& world, const ContactBuffer& contacts) {
     if (mass > 0) d.com_height /= mass;
     double sum = 0;
     for (const ContactRecord& c : contacts.items()) {
+        if (world.ignores(c)) continue;
         d.max_penetration = std::max(d.max_penetration, c.geom.depth);
         sum += c.geom.depth;
+        ++d.contacts;
     }
-    d.contacts = contacts.size();
-    d.mean_penetration = contacts.size() ? sum / static_cast<double>(contacts.size()) : 0;
+    d.mean_penetration = d.contacts ? sum / static_cast<double>(d.contacts) : 0;
     d.state_hash = state_hash(world);
     return d;
 }

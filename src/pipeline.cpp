@@ -2,7 +2,6 @@
 #include "pipeline.hpp"
 
 #include <chrono>
-#include <sstream>
 
 #include "controller.hpp"
 #include "hash.hpp"
@@ -18,6 +17,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
     world_ = std::make_unique<World>(scene, backend_->space_kind());
+    solver_ = SolverRegistry::instance().make(options.solver, scene);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) {
         magnets_ = std::make_unique<MagnetField>(scene, *world_);
@@ -29,6 +29,17 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
         snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
         snapshot_every_ = options.snapshot_every;
     }
+    initial_ = observe(*world_, contacts_);
+    guard_ = std::make_unique<Guard>(*world_, initial_, options.dump_path);
+    if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_);
+    if (options.record_trajectory) {
+        trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
+        trajectory_->frames.push_back(capture_frame(*world_, initial_, 0, 0.0));
+    }
+}
+
+nlohmann::json Pipeline::checks_result() const {
+    return checker_ ? checker_->result(*world_, last_) : nlohmann::json();
 }
 
 void Pipeline::plan_stages(const Scene& scene, const RunOptions& options) {
@@ -41,9 +52,10 @@ void Pipeline::plan_stages(const Scene& scene, const RunOptions& options) {
     set(Stage::Forces, magnets || driver,
         magnets && driver ? "magnets and controller" : magnets ? "magnets on" : driver ? "controller" : "no magnets, no controller");
     set(Stage::Collide, true, "backend " + backend_->name());
-    set(Stage::Joints, true, scene.joints.empty() ? "contact joints" : "contact joints; scene joints are persistent");
-    set(Stage::Solve, true, scene.solver.stepper == Stepper::Quick ? "dWorldQuickStep" : "dWorldStep");
-    set(Stage::Observe, true, "every " + std::to_string(scene.observe_every) + " steps");
+    const bool joints = solver_->uses_contact_joints();
+    set(Stage::Joints, joints, joints ? "ODE contact joints for " + solver_->name() : solver_->name() + " reads the contacts directly");
+    set(Stage::Solve, true, solver_->why());
+    set(Stage::Observe, true, "every " + std::to_string(scene.observe_every) + " steps; finite check every step");
     const bool out = !options.snapshot_path.empty() && options.snapshot_every > 0;
     set(Stage::Output, out, out ? "snapshot every " + std::to_string(options.snapshot_every) + " steps" : "no output requested");
 }
@@ -63,6 +75,7 @@ void Pipeline::step() {
     timed(Stage::Joints, [this] { run_joints(); });
     timed(Stage::Solve, [this] { run_solve(); });
     ++steps_;
+    timed(Stage::Observe, [this] { guard_->check_step(*world_, steps_); });
     if (steps_ % scene_.observe_every == 0) timed(Stage::Observe, [this] { run_observe(); });
     if (snapshot_every_ > 0 && steps_ % snapshot_every_ == 0) timed(Stage::Output, [this] { run_output(); });
 }
@@ -90,10 +103,7 @@ void Pipeline::run_joints() {
     world_->create_contact_joints(contacts_.items());
 }
 
-void Pipeline::run_solve() {
-    if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world_->id(), scene_.dt);
-    else dWorldStep(world_->id(), scene_.dt);
-}
+void Pipeline::run_solve() { solver_->step(*world_, contacts_); }
 
 void Pipeline::run_observe() {
     last_ = observe(*world_, contacts_);
@@ -101,12 +111,9 @@ void Pipeline::run_observe() {
     totals_.max_penetration = std::max(totals_.max_penetration, last_.max_penetration);
     totals_.penetration_sum += last_.mean_penetration * static_cast<double>(last_.contacts);
     totals_.observed_contacts += last_.contacts;
-    if (last_.nan_count == 0) return;
-    std::ostringstream os;
-    os << "step " << steps_ << ": " << last_.nan_count << " bodies have a non-finite state (first ids:";
-    for (std::size_t id : nan_bodies(*world_, 10)) os << ' ' << id;
-    os << "); stopping";
-    throw SimulationError(os.str());
+    guard_->check_observed(*world_, last_, steps_);
+    if (checker_) checker_->observe(*world_, last_);
+    if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt));
 }
 
 void Pipeline::run_output() {

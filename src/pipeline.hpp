@@ -10,9 +10,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "checks.hpp"
 #include "collide.hpp"
 #include "diagnostics.hpp"
+#include "guard.hpp"
 #include "magnets.hpp"
+#include "solver.hpp"
+#include "trajectory.hpp"
 #include "world.hpp"
 
 namespace parode {
@@ -29,9 +33,12 @@ struct StageState {
 
 struct RunOptions {
     std::string collide = "ode-hash";
+    std::string solver = "ode";  // "ode", "pgs", "parallel"
     int threads = 1;
     std::string snapshot_path;  // CSV of body poses; empty: no output stage
     int snapshot_every = 0;
+    bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
+    std::string dump_path;           // guard: where to write the last good state on failure
 };
 
 // A run that cannot go on (NaN, runaway): names the step and the bodies.
@@ -63,6 +70,13 @@ public:
     const Diagnostics& last() const { return last_; }
     const RunTotals& totals() const { return totals_; }
     const CollideBackend& backend() const { return *backend_; }
+    const Diagnostics& initial() const { return initial_; }
+    const Guard& guard() const { return *guard_; }
+    // Recorded frames (null unless RunOptions::record_trajectory).
+    const Trajectory* trajectory() const { return trajectory_.get(); }
+    // The [checks] verdict for the current state (null when the scene has no [checks]).
+    nlohmann::json checks_result() const;
+    const SolverBackend& solver() const { return *solver_; }
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
@@ -78,12 +92,17 @@ private:
     const Scene& scene_;
     std::unique_ptr<CollideBackend> backend_;
     std::unique_ptr<World> world_;
+    std::unique_ptr<SolverBackend> solver_;
     std::unique_ptr<MagnetField> magnets_;
     std::vector<BodyWrench> wrenches_;
     ContactBuffer contacts_;
     std::array<StageState, kStageCount> stages_;
+    Diagnostics initial_;
     Diagnostics last_;
     RunTotals totals_;
+    std::unique_ptr<Guard> guard_;
+    std::unique_ptr<Checker> checker_;
+    std::unique_ptr<Trajectory> trajectory_;
     std::ofstream snapshot_;
     int snapshot_every_ = 0;
     int steps_ = 0;

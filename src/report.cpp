@@ -36,6 +36,11 @@ nlohmann::json build_info() {
     return b;
 }
 
+nlohmann::json solver_json(const SolverSpec& s) {
+    return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
+            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}};
+}
+
 namespace {
 
 nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {
@@ -69,10 +74,8 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["wall_s"] = info.wall_s;
     r["ms_per_step"] = steps ? 1000.0 * info.wall_s / steps : 0.0;
     r["backends"] = {{"collide", p.backend().name()},
-                     {"solve", scene.solver.stepper == Stepper::Quick ? "ode-quickstep" : "ode-worldstep"}};
-    r["solver"] = {{"stepper", scene.solver.stepper == Stepper::Quick ? "quick" : "world"},
-                   {"iterations", scene.solver.iterations}, {"sor_w", scene.solver.sor_w},
-                   {"erp", scene.solver.erp}, {"cfm", scene.solver.cfm}};
+                     {"solve", p.solver().name()}};
+    r["solver"] = solver_json(scene.solver);
     nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object();
     for (int s = 0; s < kStageCount; ++s) {
         const StageState& st = p.stage(static_cast<Stage>(s));
@@ -85,6 +88,9 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["contacts_per_step"] = steps ? static_cast<double>(p.totals().contacts) / steps : 0.0;
     r["state_hash"] = hex64(p.last().state_hash);
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
+    r["guard"] = p.guard().describe();
+    const nlohmann::json checks = p.checks_result();
+    if (!checks.is_null()) r["checks"] = checks;
     r["build"] = build_info();
     return r;
 }
@@ -115,6 +121,30 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
        << d["mean_penetration"].get<double>() << " m, NaN bodies " << d["nan_count"] << "\n";
     os << "  state hash " << r["state_hash"].get<std::string>() << "\n";
     os.unsetf(std::ios::floatfield);
+    if (!r.contains("checks")) return;
+    os << "  checks " << (r["checks"]["passed"].get<bool>() ? "passed" : "FAILED") << ":";
+    for (const auto& i : r["checks"]["items"]) {
+        os << " " << i["name"].get<std::string>() << " = " << i["value"].get<double>() << " ("
+           << (i["passed"].get<bool>() ? "ok" : "fail") << ", bound " << i["bound"].get<double>() << ");";
+    }
+    os << "\n";
+}
+
+void print_error_summary(std::ostream& os, const nlohmann::json& e) {
+    const auto& ref = e["reference"];
+    os << "  error against " << ref.value("scene", std::string("?")) << " (dt " << ref.value("dt", 0.0) << ", "
+       << ref["solver"].value("stepper", std::string("?")) << ", " << ref["solver"].value("iterations", 0)
+       << " iterations), " << e["matched_frames"] << " matched frames\n";
+    for (const auto& h : e["trajectory"]) {
+        os << "    after " << h["step"] << " steps: position RMS " << h["rms"].get<double>() << " m, max "
+           << h["max"].get<double>() << " m\n";
+    }
+    const auto& o = e["observables"];
+    os << "    at t = " << o["time"].get<double>() << " s: com height " << o["com_height"]["diff"].get<double>()
+       << " m off, spread " << o["spread"]["diff"].get<double>() << " m off, escaped "
+       << o["escaped"]["run"].get<double>() << " vs " << o["escaped"]["reference"].get<double>() << ", shape error "
+       << o["shape_error"].get<double>() << " m; energy drift " << e["energy"]["drift"].get<double>() << " J (reference "
+       << e["energy"]["reference_drift"].get<double>() << " J)\n";
 }
 
 void write_report(const std::string& path, const nlohmann::json& report) {

@@ -20,8 +20,11 @@ struct RunInfo {
 };
 
 nlohmann::json build_info();
+nlohmann::json solver_json(const SolverSpec& s);
 nlohmann::json make_report(const Scene& scene, const Pipeline& pipeline, const RunInfo& info);
 void print_summary(std::ostream& os, const nlohmann::json& report);
+// The `error` block (error_metrics.hpp) as a few summary lines.
+void print_error_summary(std::ostream& os, const nlohmann::json& error);
 // Writes the report; throws std::runtime_error naming the file on failure.
 void write_report(const std::string& path, const nlohmann::json& report);
 

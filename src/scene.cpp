@@ -20,6 +20,11 @@ int Scene::find_body(const std::string& n) const {
     return -1;
 }
 
+bool CheckSpec::any() const {
+    return max_penetration || max_final_penetration || max_energy_gain || max_displacement || max_final_speed || min_disabled ||
+           max_escaped || !positions.empty();
+}
+
 int Scene::find_joint(const std::string& n) const {
     for (std::size_t i = 0; i < joints.size(); ++i) if (joints[i].name == n) return static_cast<int>(i);
     return -1;

@@ -6,6 +6,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -110,10 +111,41 @@ struct SolverSpec {
     double contact_surface_layer = 0.001;
     double contact_max_correcting_vel = 1e9;
     int max_contacts = 4;
+    bool warm_start = true;  // project contact solver only
     bool auto_disable = false;
     double auto_disable_linear = 0.01;
     double auto_disable_angular = 0.01;
     int auto_disable_steps = 10;
+};
+
+// The run guard (guard.hpp): a non-finite state always stops the run; these
+// bounds stop a runaway too.
+struct GuardSpec {
+    bool energy = true;                     // stop when the total energy grows past the bound
+    std::optional<double> max_energy_gain;  // J over the initial energy; unset: automatic bound
+    double max_speed = 0;                   // m/s; 0: no speed bound
+};
+
+// A bound on one coordinate of one body, at the end of the run or (always)
+// at every observed step.
+struct PositionCheck {
+    int body = 0;
+    int axis = 2;  // 0 x, 1 y, 2 z
+    double min = -1e300, max = 1e300;
+    bool always = false;
+};
+
+// Pass criteria of a run ([checks], checks.hpp); unset bounds are not checked.
+struct CheckSpec {
+    std::optional<double> max_penetration;   // m, over observed steps
+    std::optional<double> max_final_penetration;  // m, at the end
+    std::optional<double> max_energy_gain;   // J over the initial total energy, every observed step
+    std::optional<double> max_displacement;  // m, any catom (or body) from its start, at the end
+    std::optional<double> max_final_speed;   // m/s, any body at the end
+    std::optional<double> min_disabled;      // fraction of bodies asleep at the end
+    std::optional<long> max_escaped;         // catoms outside the initial footprint at the end
+    std::vector<PositionCheck> positions;
+    bool any() const;
 };
 
 struct Scene {
@@ -132,6 +164,8 @@ struct Scene {
     std::vector<JointSpec> joints;
     MagnetModel magnets;
     ControllerSpec controller;
+    GuardSpec guard;
+    CheckSpec checks;
 
     std::size_t catom_count() const;
     bool any_magnets() const;

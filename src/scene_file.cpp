@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "generators.hpp"
+#include "scene_checks.hpp"
 
 namespace parode {
 namespace {
@@ -65,7 +66,7 @@ void read_solver(const Node& root, SolverSpec& s) {
     if (!root.has("solver")) return;
     const Node t = root.at("solver");
     t.expect_keys({"stepper", "iterations", "sor_w", "erp", "cfm", "contact_surface_layer",
-                   "contact_max_correcting_vel", "max_contacts", "auto_disable"});
+                   "contact_max_correcting_vel", "max_contacts", "warm_start", "auto_disable"});
     s.stepper = t.choice("stepper", "quick", {"quick", "world"}) == "quick" ? Stepper::Quick : Stepper::World;
     s.iterations = static_cast<int>(t.integer("iterations", s.iterations, 1, 100000));
     s.sor_w = t.number("sor_w", s.sor_w, 0.01, 2.0);
@@ -74,6 +75,7 @@ void read_solver(const Node& root, SolverSpec& s) {
     s.contact_surface_layer = t.number("contact_surface_layer", s.contact_surface_layer, 0.0);
     s.contact_max_correcting_vel = t.number("contact_max_correcting_vel", s.contact_max_correcting_vel, 0.0);
     s.max_contacts = static_cast<int>(t.integer("max_contacts", s.max_contacts, 1, 64));
+    s.warm_start = t.boolean("warm_start", s.warm_start);
     if (!t.has("auto_disable")) return;
     const Node a = t.at("auto_disable");
     a.expect_keys({"enabled", "linear", "angular", "steps"});
@@ -113,7 +115,7 @@ void read_bodies(const Node& root, Scene& sc) {
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
         t.expect_keys({"name", "shape", "radius", "length", "size", "mass", "position", "rotation",
-                       "velocity", "angular_velocity", "material"});
+                       "velocity", "angular_velocity", "material", "catom"});
         BodySpec b;
         b.name = t.string("name", "");
         if (b.name.empty()) t.fail("name", "a non-empty string");
@@ -125,6 +127,8 @@ void read_bodies(const Node& root, Scene& sc) {
         b.velocity = t.vec3("velocity", b.velocity);
         b.angular_velocity = t.vec3("angular_velocity", b.angular_velocity);
         b.material = material_index(sc, t, "material");
+        b.catom = t.boolean("catom", false);
+        if (b.catom && b.shape.kind != ShapeKind::Sphere) t.fail("catom", "false for a shape other than a sphere");
         sc.bodies.push_back(b);
     }
 }
@@ -249,7 +253,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     for (const auto& o : overrides) apply_override(data, o);
     const Node root(data, "");
     root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
-                      "catoms", "magnets", "controller"});
+                      "catoms", "magnets", "controller", "guard", "checks"});
     Scene sc;
     sc.source = name;
     read_scene_table(root, sc);
@@ -263,6 +267,8 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     read_catoms(root, sc);
     read_magnets(root, sc);
     if (sc.bodies.empty()) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
+    read_guard(root, sc.guard);
+    read_checks(root, sc);
     return sc;
 }
 

@@ -208,12 +208,16 @@ const dSurfaceParameters& World::surface(int a, int b) const {
     return surfaces_[static_cast<std::size_t>(a) * scene_.materials.size() + static_cast<std::size_t>(b)];
 }
 
+bool World::ignores(const ContactRecord& c) const {
+    if (joints_.empty()) return false;
+    dBodyID b1 = dGeomGetBody(c.geom.g1), b2 = dGeomGetBody(c.geom.g2);
+    return b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
+}
+
 void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
-    const bool jointed = !joints_.empty();
     for (const ContactRecord& r : contacts) {
+        if (ignores(r)) continue;
         dBodyID b1 = dGeomGetBody(r.geom.g1), b2 = dGeomGetBody(r.geom.g2);
-        // Bodies joined by a scene joint do not touch (as in ODE's own demos).
-        if (jointed && b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact)) continue;
         dContact c;
         c.surface = surface(geom_material_[r.lo], geom_material_[r.hi]);
         c.geom = r.geom;

@@ -40,8 +40,11 @@ public:
 
     // Surface parameters for a contact between two materials (mixed once, cached).
     const dSurfaceParameters& surface(int a, int b) const;
-    // Create contact joints serially, in the buffer's (canonical) order; contacts
-    // between two bodies joined by a scene joint are skipped.
+    // True for a contact between two bodies joined by a scene joint: such bodies
+    // do not touch (as in ODE's own demos), for the solver and the diagnostics.
+    bool ignores(const ContactRecord& c) const;
+    // Create contact joints serially, in the buffer's (canonical) order, except
+    // the ignored ones.
     void create_contact_joints(const std::vector<ContactRecord>& contacts);
 
 private:

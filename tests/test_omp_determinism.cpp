@@ -36,6 +36,7 @@ TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
     for (std::size_t k = 0; k < serial.size(); ++k) serial[k] = field.gather(k);
     for (int threads = 1; threads <= 4; ++threads) {
         parode::omp::set_threads(threads);
+        parode::omp::set_min_parallel(0);
         std::vector<BodyWrench> par;
         gather_magnets(field, par);
         ASSERT_EQ(par.size(), serial.size());

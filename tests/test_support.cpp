@@ -14,6 +14,7 @@ Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets) {
 std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide, int threads) {
     parode::omp::register_backends();
     parode::omp::set_threads(threads);
+    parode::omp::set_min_parallel(0);  // exercise the parallel paths at any size
     RunOptions opt;
     opt.collide = collide;
     opt.threads = threads;

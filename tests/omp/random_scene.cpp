@@ -48,6 +48,7 @@ RandomScene::RandomScene(std::uint32_t seed, const SceneOptions& opt)
         dGeomSetPosition(big, opt.extent / 2, opt.extent / 2, opt.extent / 3);
         geoms_.push_back(big);
     }
+    if (opt.trimesh) add_trimesh();
     if (opt.nested > 0) {
         nested_ = dSimpleSpaceCreate(space_);
         for (int i = 0; i < opt.nested; ++i) {
@@ -61,7 +62,20 @@ RandomScene::RandomScene(std::uint32_t seed, const SceneOptions& opt)
 
 RandomScene::~RandomScene() {
     dSpaceDestroy(space_);  // destroys the nested space and all geoms
+    if (mesh_data_) dGeomTriMeshDataDestroy(mesh_data_);
     dWorldDestroy(world_);
+}
+
+// A square sheet of two triangles across the scene, tilted a little.
+void RandomScene::add_trimesh() {
+    const double e = opt_.extent;
+    const double z = 0.4 * e;
+    mesh_vertices_ = {0, 0, z, 0, e, 0, z + 0.5, 0, 0, e, z - 0.3, 0, e, e, z + 0.2, 0};
+    mesh_indices_ = {0, 1, 2, 1, 3, 2};
+    mesh_data_ = dGeomTriMeshDataCreate();
+    dGeomTriMeshDataBuildDouble(mesh_data_, mesh_vertices_.data(), 4 * sizeof(dReal), 4,
+                                mesh_indices_.data(), 6, 3 * sizeof(dTriIndex));
+    geoms_.push_back(dCreateTriMesh(space_, mesh_data_, nullptr, nullptr, nullptr));
 }
 
 dGeomID RandomScene::add_shape(dSpaceID space, int kind, double size) {

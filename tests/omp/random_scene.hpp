@@ -1,5 +1,6 @@
 // Seeded random scenes for the collision tests: mixed primitives (spheres,
-// boxes, capsules, cylinders, planes, a zero-sized sphere, an oversized box),
+// boxes, capsules, cylinders, planes, a zero-sized sphere, an oversized box,
+// a trimesh sheet),
 // shared bodies (same-body pairs, offset geoms), disabled bodies, disabled
 // geoms, custom category/collide bits and a nested space, all in an ODE hash
 // space so ODE's own dSpaceCollide is the reference. Also the touching sphere
@@ -20,6 +21,7 @@ struct SceneOptions {
     double extent = 6.0;      // side of the cube the geoms are placed in
     bool planes = true;
     bool special = true;      // bits, disabled geoms/bodies, zero-size, big box
+    bool trimesh = true;      // a two-triangle trimesh sheet (serial pairs)
 };
 
 // Owns an ODE world and a hash space with a random scene; geoms have ids 0..n-1.
@@ -39,6 +41,7 @@ private:
     dGeomID add_shape(dSpaceID space, int kind, double size);
     void place(dGeomID g, bool own_body);
     void apply_specials(dGeomID g);
+    void add_trimesh();
     double uniform(double lo, double hi);
 
     dWorldID world_ = nullptr;
@@ -46,6 +49,9 @@ private:
     dSpaceID nested_ = nullptr;
     std::vector<dGeomID> geoms_;
     std::vector<dBodyID> bodies_;
+    std::vector<dReal> mesh_vertices_;
+    std::vector<dTriIndex> mesh_indices_;
+    dTriMeshDataID mesh_data_ = nullptr;
     std::uint64_t state_;
     SceneOptions opt_;
 };

@@ -128,6 +128,26 @@ TEST(GridCollide, SpherePrismMatches) {
     expect_engine_matches(prism.space(), "sphere prism");
 }
 
+TEST(GridCollide, ExactlyTouchingLatticeMatches) {
+    // No jitter: neighbouring AABBs share faces exactly and spheres touch at
+    // depth 0; ODE's closed overlap test reports these pairs.
+    SpherePrism prism(8, 0.5, 0.0, 1, dHashSpaceClass);
+    expect_engine_matches(prism.space(), "touching lattice");
+    dSpaceID boxes = dHashSpaceCreate(nullptr);
+    std::uint32_t id = 0;
+    for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j < 6; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                dGeomID g = dCreateBox(boxes, 1, 1, 1);
+                dGeomSetPosition(g, i, j, k);
+                set_geom_id(g, id++);
+            }
+        }
+    }
+    expect_engine_matches(boxes, "touching boxes");
+    dSpaceDestroy(boxes);
+}
+
 TEST(GridCollide, SparseScatterMatches) {
     // Few geoms over a huge region: the grid takes its sparse (sorted-key) path.
     SceneOptions opt;
@@ -289,6 +309,7 @@ TEST(LibraryApi, BenchReportsReferenceDigest) {
 
 int main(int argc, char** argv) {
     dInitODE2(0);
+    dAllocateODEDataForThread(dAllocateMaskAll);
     testing::InitGoogleTest(&argc, argv);
     const int rc = RUN_ALL_TESTS();
     dCloseODE();

@@ -1,0 +1,135 @@
+// `parode bench step SCENE --backends ode-hash/ode:1,grid/parallel:2`: times
+// whole steps of several configurations (collide backend / solver : threads)
+// side by side in one process. Each variant runs its own pipeline on the same
+// scene; they advance in turns, --every steps at a time, so all see the same
+// phase of the run and the same machine noise. An untimed reference pipeline
+// (ODE's hash space and QuickStep with --reference-iterations) steps along, and
+// each variant's error is measured against it: RMS position error after
+// --error-at steps, and at the end the centre-of-mass height and penetration.
+// Trade-off: the variants' trajectories diverge in chaotic piles, so their
+// timings compare equal scenes and phases, not identical states.
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "cli_common.hpp"
+#include "pipeline.hpp"
+#include "register.hpp"
+#include "scene_file.hpp"
+
+namespace parode::cli {
+namespace {
+
+struct StepVariant {
+    std::string label, collide, solver;
+    int threads = 1;
+    std::unique_ptr<Pipeline> p;
+    double seconds = 0;
+    double rms_at = -1;
+};
+
+StepVariant parse_variant(const std::string& spec) {
+    StepVariant v;
+    v.label = spec;
+    std::string s = spec;
+    const auto colon = s.find(':');
+    if (colon != std::string::npos) {
+        v.threads = std::stoi(s.substr(colon + 1));
+        s = s.substr(0, colon);
+    }
+    const auto slash = s.find('/');
+    v.collide = s.substr(0, slash);
+    v.solver = slash == std::string::npos ? "ode" : s.substr(slash + 1);
+    return v;
+}
+
+std::unique_ptr<Pipeline> make_pipeline(const Scene& sc, const std::string& collide, const std::string& solver, int threads) {
+    RunOptions opt;
+    opt.collide = collide;
+    opt.solver = solver;
+    opt.threads = threads;
+    return std::make_unique<Pipeline>(sc, opt);
+}
+
+double rms_position_error(const Pipeline& a, const Pipeline& ref) {
+    double sum = 0;
+    const std::size_t n = ref.world().body_count();
+    for (std::size_t i = 0; i < n; ++i) {
+        const dReal* x = dBodyGetPosition(a.world().body(i));
+        const dReal* y = dBodyGetPosition(ref.world().body(i));
+        sum += (x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) + (x[2] - y[2]) * (x[2] - y[2]);
+    }
+    return std::sqrt(sum / static_cast<double>(n));
+}
+
+void advance(StepVariant& v, int steps) {
+    parode::omp::set_threads(v.threads);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int s = 0; s < steps; ++s) v.p->step();
+    v.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void print_step_table(const Scene& sc, int steps, std::vector<StepVariant>& vars, const Pipeline* ref, int error_at,
+                      std::ostream& os) {
+    os << "step benchmark: " << sc.name << ", " << sc.bodies.size() << " bodies, " << steps << " steps, "
+       << sc.solver.iterations << " iterations" << (ref ? ", reference: ode-hash/ode with more iterations" : "") << "\n";
+    os << "  variant                 ms/step  collide    solve  x vs first   rms@" << error_at
+       << "    |dcom|   max pen  mean pen\n";
+    const double base = vars[0].seconds;
+    os << std::fixed;
+    for (auto& v : vars) {
+        v.p->finish();
+        const double per = 1e3 / steps;
+        os << "  " << std::left << std::setw(22) << v.label << std::right << std::setprecision(3) << std::setw(9)
+           << v.seconds * per << std::setw(9) << v.p->stage(Stage::Collide).seconds * per << std::setw(9)
+           << v.p->stage(Stage::Solve).seconds * per << std::setw(12) << std::setprecision(2) << base / v.seconds
+           << std::setprecision(6) << std::setw(10) << v.rms_at << std::setw(10)
+           << (ref ? std::fabs(v.p->last().com_height - ref->last().com_height) : -1.0) << std::setw(10)
+           << v.p->totals().max_penetration << std::setw(10) << v.p->totals().mean_penetration() << "\n";
+    }
+}
+
+}  // namespace
+
+int bench_step(const BenchArgs& a) {
+    const Scene scene = load_scene(a.scene, a.sets);
+    std::vector<StepVariant> vars;
+    for (const auto& spec : a.backends) {
+        vars.push_back(parse_variant(spec));
+        vars.back().p = make_pipeline(scene, vars.back().collide, vars.back().solver, vars.back().threads);
+    }
+    Scene ref_scene = scene;
+    ref_scene.solver.iterations = a.reference_iterations;
+    std::unique_ptr<Pipeline> ref;
+    if (a.reference_iterations > 0) ref = make_pipeline(ref_scene, "ode-hash", "ode", 1);
+    const int steps = a.steps > 0 ? a.steps : scene.steps, chunk = a.every;
+    for (int done = 0; done < steps;) {
+        const int n = std::min(chunk, steps - done);
+        for (auto& v : vars) advance(v, n);
+        if (ref) {
+            parode::omp::set_threads(1);
+            for (int s = 0; s < n; ++s) ref->step();
+        }
+        done += n;
+        if (ref && done == a.error_at) {
+            for (auto& v : vars) v.rms_at = rms_position_error(*v.p, *ref);
+        }
+    }
+    if (ref) ref->finish();
+    print_step_table(scene, steps, vars, ref.get(), a.error_at, std::cout);
+    if (!a.csv.empty()) {
+        std::ofstream out(a.csv);
+        if (!out) throw std::runtime_error(a.csv + ": cannot open CSV file for writing");
+        out << "scene,bodies,steps,variant,ms_per_step,collide_ms,solve_ms,speedup_vs_first,rms_at,error_at\n";
+        for (const auto& v : vars) {
+            out << scene.name << ',' << scene.bodies.size() << ',' << steps << ',' << v.label << ',' << 1e3 * v.seconds / steps
+                << ',' << 1e3 * v.p->stage(Stage::Collide).seconds / steps << ',' << 1e3 * v.p->stage(Stage::Solve).seconds / steps
+                << ',' << vars[0].seconds / v.seconds << ',' << v.rms_at << ',' << a.error_at << '\n';
+        }
+    }
+    return 0;
+}
+
+}  // namespace parode::cli

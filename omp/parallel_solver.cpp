@@ -1,0 +1,56 @@
+// Parallel loops of the contact solver (see parallel_solver.hpp).
+#include "parallel_solver.hpp"
+
+#include "register.hpp"
+
+namespace parode::omp {
+namespace {
+// Below these sizes a parallel region costs more than it saves; results are
+// the same either way.
+long min_bodies() { return min_parallel(4096); }
+long min_blocks() { return min_parallel(2048); }
+}  // namespace
+
+void ParallelContactSolver::prepare_bodies() {
+    const long n = static_cast<long>(world_body_count());
+#pragma omp parallel for schedule(static) if (n >= min_bodies())
+    for (long i = 0; i < n; ++i) prepare_body(static_cast<std::size_t>(i));
+}
+
+void ParallelContactSolver::build_blocks() {
+    const long n = static_cast<long>(blocks());
+#pragma omp parallel for schedule(dynamic, 256) if (n >= min_blocks())
+    for (long s = 0; s < n; ++s) build_block(static_cast<std::size_t>(s));
+}
+
+void ParallelContactSolver::iterate() {
+    const int nc = colours(), iters = iterations();
+    const bool big = static_cast<long>(blocks()) >= min_blocks();
+#pragma omp parallel if (big)
+    for (int it = 0; it < iters; ++it) {
+        for (int c = 0; c < nc; ++c) {
+            const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
+#pragma omp for schedule(dynamic, 4)
+            for (long t = b; t < e; ++t) relax_cell(static_cast<std::size_t>(t));
+        }
+    }
+}
+
+void ParallelContactSolver::warm_start() {
+    const int nc = colours();
+    const bool big = static_cast<long>(blocks()) >= min_blocks();
+#pragma omp parallel if (big)
+    for (int c = 0; c < nc; ++c) {
+        const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
+#pragma omp for schedule(dynamic, 4)
+        for (long t = b; t < e; ++t) warm_cell(static_cast<std::size_t>(t));
+    }
+}
+
+void ParallelContactSolver::body_wrenches() {
+    const long n = static_cast<long>(world_body_count());
+#pragma omp parallel for schedule(static) if (n >= min_bodies())
+    for (long i = 0; i < n; ++i) body_wrench(static_cast<std::size_t>(i));
+}
+
+}  // namespace parode::omp
