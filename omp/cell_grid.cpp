@@ -2,9 +2,10 @@
 // (with a small margin against rounding), integer cell keys of the AABBs' minimum
 // corners, a stable counting sort (dense) or comparison sort (sparse), and the
 // compact sorted entries.
-// Trade-off: keys and entries are computed in tasks but the counting sort is
-// serial: two passes over 8-byte keys, small next to the narrowphase, and the
-// layout comes out identical for every thread count.
+// Trade-off: the dense counting sort runs in tasks (by z-slab), which costs an
+// extra pass over the keys but leaves only prefix sums over tasks x slabs
+// serial; the layout comes out identical for every thread count. The sparse
+// path (rare: geoms scattered far apart) sorts serially.
 #include "cell_grid.hpp"
 #include "task_split.hpp"
 
@@ -17,50 +18,27 @@ namespace {
 constexpr double kMargin = 1.0 + 1e-4;       // cell size over largest extent
 constexpr double kMaxCells = 1152921504606846976.0;  // 2^60
 
-// Minimum corners' bounds and the largest extent of a block of geoms.
-struct Bounds {
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
-    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    double ext = 0;
-    void add(const GeomInfo& g) {
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], g.aabb[2 * k]);
-            hi[k] = std::max(hi[k], g.aabb[2 * k]);
-        }
-        ext = std::max(ext, g.extent);
-    }
-    void add(const Bounds& b) {
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], b.lo[k]);
-            hi[k] = std::max(hi[k], b.hi[k]);
-        }
-        ext = std::max(ext, b.ext);
-    }
-};
-
 constexpr std::size_t kBlock = 4096;  // geoms per partial bound
 
-Bounds item_bounds(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
+CellBounds item_bounds(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
     const std::size_t n = items.size();
     const std::size_t nblocks = (n + kBlock - 1) / kBlock;
-    std::vector<Bounds> part(nblocks);
-    Bounds* out = part.data();
+    std::vector<CellBounds> part(nblocks);
+    CellBounds* out = part.data();
     const GeomInfo* info = infos.data();
     const std::uint32_t* item = items.data();
 #pragma omp taskloop num_tasks(task_count(nblocks, 1)) default(none) firstprivate(out, info, item, n, nblocks)
     for (std::size_t b = 0; b < nblocks; ++b) {
         for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) out[b].add(info[item[j]]);
     }
-    Bounds all;
-    for (const Bounds& b : part) all.add(b);
+    CellBounds all;
+    for (const CellBounds& b : part) all.add(b);
     return all;
 }
 
 }  // namespace
 
-void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
-                            const std::vector<std::uint32_t>& items) {
-    const Bounds bounds = item_bounds(infos, items);
+void CellGrid::choose_cells(const CellBounds& bounds, bool empty) {
     double lo[3], hi[3];
     for (int k = 0; k < 3; ++k) {
         lo[k] = bounds.lo[k];
@@ -68,7 +46,7 @@ void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
     }
     const double ext = bounds.ext;
     h_ = ext > 0 ? ext * kMargin : 1.0;
-    if (items.empty()) std::fill(lo, lo + 3, 0.0), std::fill(hi, hi + 3, 0.0);
+    if (empty) std::fill(lo, lo + 3, 0.0), std::fill(hi, hi + 3, 0.0);
     for (;;) {
         inv_h_ = 1.0 / h_;
         double cells = 1;
@@ -90,8 +68,9 @@ void CellGrid::choose_cells(const std::vector<GeomInfo>& infos,
 std::uint64_t CellGrid::cell_key(const GeomInfo& g) const {
     std::uint64_t c[3];
     for (int k = 0; k < 3; ++k) {
-        const double x = std::floor((g.aabb[2 * k] - origin_[k]) * inv_h_);
-        c[k] = std::min(static_cast<std::uint64_t>(x < 0 ? 0 : x) + 1, dims_[k] - 2);
+        // Non-negative (origin is the minimum corner), so truncation is floor.
+        const double x = (g.aabb[2 * k] - origin_[k]) * inv_h_;
+        c[k] = std::min(static_cast<std::uint64_t>(x > 0 ? x : 0) + 1, dims_[k] - 2);
     }
     return (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
 }
@@ -107,15 +86,86 @@ void CellGrid::compute_keys(const std::vector<GeomInfo>& infos,
     for (std::size_t j = 0; j < n; ++j) raw_keys_[j] = cell_key(info[item[j]]);
 }
 
+// Stable counting sort by cell key, in tasks: items are first spread over
+// z-slabs (a histogram per task, a prefix over tasks x slabs, a scatter per
+// task), then each slab, whose cells form one key range, is sorted on its own.
 void CellGrid::sort_dense(std::size_t ncells) {
     const std::size_t n = raw_keys_.size();
-    start_.assign(ncells + 1, 0);
-    for (std::size_t j = 0; j < n; ++j) ++start_[raw_keys_[j] + 1];
-    for (std::size_t c = 0; c < ncells; ++c) start_[c + 1] += start_[c];
-    std::vector<std::uint32_t>& next = ustart_;  // scratch: running fill position
-    next.assign(start_.begin(), start_.end() - 1);
+    const std::size_t nslabs = static_cast<std::size_t>(dims_[2]);
+    const std::size_t tasks = task_count(n, 2048);
+    slab_pos_.assign(tasks * nslabs, 0);
+    slab_items_.resize(n);
     order_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) order_[next[raw_keys_[j]]++] = static_cast<std::uint32_t>(j);
+    start_.resize(ncells + 1);
+    count_slabs(tasks, nslabs);
+    slab_start_.assign(nslabs + 1, 0);
+    std::size_t acc = 0;
+    for (std::size_t z = 0; z < nslabs; ++z) {
+        slab_start_[z] = acc;
+        for (std::size_t t = 0; t < tasks; ++t) {
+            const std::size_t c = slab_pos_[t * nslabs + z];
+            slab_pos_[t * nslabs + z] = acc;
+            acc += c;
+        }
+    }
+    slab_start_[nslabs] = acc;
+    scatter_slabs(tasks, nslabs);
+    sort_slabs(nslabs);
+    start_[ncells] = static_cast<std::uint32_t>(n);
+}
+
+void CellGrid::count_slabs(std::size_t tasks, std::size_t nslabs) {
+    const std::size_t n = raw_keys_.size();
+    const std::uint64_t plane = dims_[0] * dims_[1];
+    const std::uint64_t* key = raw_keys_.data();
+    std::size_t* count = slab_pos_.data();
+#pragma omp taskloop num_tasks(tasks) default(none) firstprivate(key, count, n, tasks, nslabs, plane)
+    for (std::size_t t = 0; t < tasks; ++t) {
+        for (std::size_t j = task_begin(n, tasks, t); j < task_begin(n, tasks, t + 1); ++j) {
+            ++count[t * nslabs + static_cast<std::size_t>(key[j] / plane)];
+        }
+    }
+}
+
+void CellGrid::scatter_slabs(std::size_t tasks, std::size_t nslabs) {
+    const std::size_t n = raw_keys_.size();
+    const std::uint64_t plane = dims_[0] * dims_[1];
+    const std::uint64_t* key = raw_keys_.data();
+    std::size_t* pos = slab_pos_.data();
+    std::uint32_t* out = slab_items_.data();
+#pragma omp taskloop num_tasks(tasks) default(none) firstprivate(key, pos, out, n, tasks, nslabs, plane)
+    for (std::size_t t = 0; t < tasks; ++t) {
+        for (std::size_t j = task_begin(n, tasks, t); j < task_begin(n, tasks, t + 1); ++j) {
+            out[pos[t * nslabs + static_cast<std::size_t>(key[j] / plane)]++] = static_cast<std::uint32_t>(j);
+        }
+    }
+}
+
+// Counting sort inside each slab: start_ holds counts, then first positions;
+// the scatter advances them to the ends, and a shift restores the starts.
+void CellGrid::sort_slabs(std::size_t nslabs) {
+    const std::uint64_t plane = dims_[0] * dims_[1];
+    const std::uint64_t* key = raw_keys_.data();
+    const std::uint32_t* items = slab_items_.data();
+    const std::size_t* slab = slab_start_.data();
+    std::uint32_t* start = start_.data();
+    std::uint32_t* order = order_.data();
+#pragma omp taskloop num_tasks(task_count(nslabs, 1)) default(none) \
+    firstprivate(key, items, slab, start, order, nslabs, plane)
+    for (std::size_t z = 0; z < nslabs; ++z) {
+        const std::size_t c0 = z * plane, c1 = c0 + plane;
+        std::fill(start + c0, start + c1, 0u);
+        for (std::size_t i = slab[z]; i < slab[z + 1]; ++i) ++start[key[items[i]]];
+        std::uint32_t run = static_cast<std::uint32_t>(slab[z]);
+        for (std::size_t c = c0; c < c1; ++c) {
+            const std::uint32_t k = start[c];
+            start[c] = run;
+            run += k;
+        }
+        for (std::size_t i = slab[z]; i < slab[z + 1]; ++i) order[start[key[items[i]]]++] = items[i];
+        for (std::size_t c = c1 - 1; c > c0; --c) start[c] = start[c - 1];
+        start[c0] = static_cast<std::uint32_t>(slab[z]);
+    }
 }
 
 void CellGrid::sort_sparse() {
@@ -160,7 +210,12 @@ void CellGrid::fill_entries(const std::vector<GeomInfo>& infos,
 }
 
 void CellGrid::build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
-    choose_cells(infos, items);
+    build(infos, items, item_bounds(infos, items));
+}
+
+void CellGrid::build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items,
+                     const CellBounds& bounds) {
+    choose_cells(bounds, items.empty());
     compute_keys(infos, items);
     const double ncells = static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) *
                           static_cast<double>(dims_[2]);

@@ -12,6 +12,8 @@
 #pragma once
 #include <ode/ode.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -26,10 +28,34 @@ struct alignas(64) GridEntry {
     std::uint32_t flags;  // GeomFlag bits
 };
 
+// Bounds of the geoms' minimum corners and their largest extent.
+struct CellBounds {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
+    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double ext = 0;
+    void add(const GeomInfo& g) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], g.aabb[2 * k]);
+            hi[k] = std::max(hi[k], g.aabb[2 * k]);
+        }
+        ext = std::max(ext, g.extent);
+    }
+    void add(const CellBounds& b) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], b.lo[k]);
+            hi[k] = std::max(hi[k], b.hi[k]);
+        }
+        ext = std::max(ext, b.ext);
+    }
+};
+
 class CellGrid {
 public:
     // Sort the geoms `items` (indices into `infos`, all finite) into cells.
     void build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    // The same, with the items' bounds already known.
+    void build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items,
+               const CellBounds& bounds);
 
     std::size_t size() const { return entries_.size(); }
     const GridEntry* entries() const { return entries_.data(); }
@@ -55,10 +81,13 @@ public:
 private:
     void sparse_range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin,
                       std::uint32_t& end) const;
-    void choose_cells(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void choose_cells(const CellBounds& bounds, bool empty);
     std::uint64_t cell_key(const GeomInfo& g) const;
     void compute_keys(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
     void sort_dense(std::size_t ncells);
+    void count_slabs(std::size_t tasks, std::size_t nslabs);
+    void scatter_slabs(std::size_t tasks, std::size_t nslabs);
+    void sort_slabs(std::size_t nslabs);
     void sort_sparse();
     void fill_entries(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
 
@@ -70,6 +99,9 @@ private:
     std::vector<std::uint64_t> raw_keys_;  // per item, input order
     std::vector<std::uint32_t> order_;     // sorted position -> item position
     std::vector<std::uint32_t> start_;     // dense: cell -> first sorted position
+    std::vector<std::size_t> slab_pos_;    // dense sort: per task and z-slab
+    std::vector<std::size_t> slab_start_;  // dense sort: first position per slab
+    std::vector<std::uint32_t> slab_items_;  // dense sort: items in slab order
     std::vector<std::uint64_t> ukeys_;     // sparse: occupied keys
     std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
     std::vector<std::uint64_t> keys_;      // per sorted position

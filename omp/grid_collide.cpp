@@ -58,7 +58,7 @@ int default_threads() {
 // (90th percentile of a sample) extent, so one outlier cannot coarsen the grid.
 double big_threshold(const std::vector<GeomInfo>& infos) {
     std::vector<double> sample;
-    const std::size_t stride = std::max<std::size_t>(1, infos.size() / 2048);
+    const std::size_t stride = std::max<std::size_t>(1, infos.size() / 512);
     for (std::size_t i = 0; i < infos.size(); i += stride) {
         const GeomInfo& g = infos[i];
         if ((g.flags & kEnabled) && (g.flags & kFinite)) sample.push_back(g.extent);
@@ -81,6 +81,12 @@ struct CollideEngine::Impl {
     std::vector<GeomInfo> infos;
     std::vector<std::uint32_t> small, big;
     std::vector<std::uint8_t> bucket;
+    struct SplitPart {
+        std::size_t small = 0, big = 0;
+        CellBounds bounds;
+    };
+    std::vector<SplitPart> parts;
+    CellBounds small_bounds;
     CellGrid grid;
     std::vector<GridEntry> big_entries;
     std::vector<PrimData> big_prims;
@@ -97,10 +103,12 @@ struct CollideEngine::Impl {
                   const PrimData& pb);
     void read_space(dSpaceID space);
     void split_items();
+    void list_split(std::size_t blocks);
     void build_big();
     void grid_pairs();
     void grid_pairs_of(Lane& l, std::size_t a);
     void big_pairs();
+    void all_pairs();
     void space_internal(dSpaceID space, bool recurse);
     void pair2(dGeomID g1, dGeomID g2);
     void space_vs_geoms(dSpaceID space, const std::vector<dGeomID>& geoms, bool swap);
@@ -140,24 +148,57 @@ void CollideEngine::Impl::read_space(dSpaceID space) {
     if (read_space_pipelined(space, list, infos) & kUser) use_reference = true;
 }
 
-// Marks each geom skipped (0), small (1) or big (2) in tasks, then lists them.
+// Marks each geom skipped (0), small (1) or big (2), counting and bounding the
+// small ones per block, then lists them block by block (all in tasks; only the
+// prefix over blocks is serial). The lists keep the geoms' order.
 void CollideEngine::Impl::split_items() {
     const double limit = big_threshold(infos);
     const std::size_t n = infos.size();
+    const std::size_t blocks = task_count(n, 2048);
     bucket.resize(n);
+    parts.assign(blocks, SplitPart{});
     const GeomInfo* info = infos.data();
     std::uint8_t* mark = bucket.data();
-#pragma omp taskloop num_tasks(task_count(n, 4096)) default(none) firstprivate(info, mark, n, limit)
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::uint32_t f = info[i].flags;
-        const bool is_small = (f & kFinite) && info[i].extent <= limit;
-        mark[i] = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
+    SplitPart* part = parts.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(info, mark, part, n, blocks, limit)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            const std::uint32_t f = info[i].flags;
+            const bool is_small = (f & kFinite) && info[i].extent <= limit;
+            mark[i] = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
+            if (mark[i] == 1) part[b].bounds.add(info[i]);
+            part[b].small += mark[i] == 1;
+            part[b].big += mark[i] == 2;
+        }
     }
-    small.clear();
-    big.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-        if (mark[i] == 1) small.push_back(static_cast<std::uint32_t>(i));
-        if (mark[i] == 2) big.push_back(static_cast<std::uint32_t>(i));
+    list_split(blocks);
+}
+
+void CollideEngine::Impl::list_split(std::size_t blocks) {
+    std::size_t ns = 0, nb = 0;
+    small_bounds = CellBounds{};
+    for (SplitPart& p : parts) {
+        small_bounds.add(p.bounds);
+        const std::size_t s = p.small, b = p.big;
+        p.small = ns;
+        p.big = nb;
+        ns += s;
+        nb += b;
+    }
+    small.resize(ns);
+    big.resize(nb);
+    const std::size_t n = infos.size();
+    const std::uint8_t* mark = bucket.data();
+    const SplitPart* part = parts.data();
+    std::uint32_t* to_small = small.data();
+    std::uint32_t* to_big = big.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(mark, part, to_small, to_big, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        std::size_t s = part[b].small, g = part[b].big;
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            if (mark[i] == 1) to_small[s++] = static_cast<std::uint32_t>(i);
+            if (mark[i] == 2) to_big[g++] = static_cast<std::uint32_t>(i);
+        }
     }
 }
 
@@ -191,10 +232,11 @@ void CollideEngine::Impl::grid_pairs_of(Lane& l, std::size_t a) {
     }
 }
 
+// Tasks only (nogroup): the caller's taskgroup waits for them.
 void CollideEngine::Impl::grid_pairs() {
     const std::size_t n = grid.size();
     const std::size_t chunks = (n + kGridChunk - 1) / kGridChunk;
-#pragma omp taskloop num_tasks(task_count(chunks, 1))
+#pragma omp taskloop num_tasks(task_count(chunks, 1)) nogroup
     for (std::size_t c = 0; c < chunks; ++c) {
         Lane& l = lane();
         const std::size_t end = std::min(n, (c + 1) * kGridChunk);
@@ -202,13 +244,14 @@ void CollideEngine::Impl::grid_pairs() {
     }
 }
 
-// Every small geom against every big one, then the big ones among themselves.
+// Every small geom against every big one, and the big ones among themselves.
+// Tasks only: the caller's taskgroup waits for them.
 void CollideEngine::Impl::big_pairs() {
     if (big_entries.empty()) return;
     const std::size_t n = grid.size();
     const std::size_t chunks = (n + kScanChunk - 1) / kScanChunk;
     const std::size_t nb = big_entries.size();
-#pragma omp taskloop num_tasks(task_count(chunks, 1))
+#pragma omp taskloop num_tasks(task_count(chunks, 1)) nogroup
     for (std::size_t c = 0; c < chunks; ++c) {
         Lane& l = lane();
         const std::size_t end = std::min(n, (c + 1) * kScanChunk);
@@ -218,11 +261,23 @@ void CollideEngine::Impl::big_pairs() {
             }
         }
     }
-    Lane& l = lane();
-    for (std::size_t i = 0; i < nb; ++i) {
-        for (std::size_t j = i + 1; j < nb; ++j) {
-            consider(l, big_entries[i], big_prims[i], big_entries[j], big_prims[j]);
+#pragma omp task
+    {
+        Lane& l = lane();
+        for (std::size_t i = 0; i < nb; ++i) {
+            for (std::size_t j = i + 1; j < nb; ++j) {
+                consider(l, big_entries[i], big_prims[i], big_entries[j], big_prims[j]);
+            }
         }
+    }
+}
+
+// Grid pairs and big pairs as one batch of tasks (no wait between them).
+void CollideEngine::Impl::all_pairs() {
+#pragma omp taskgroup
+    {
+        grid_pairs();
+        big_pairs();
     }
 }
 
@@ -234,11 +289,10 @@ void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
     if (use_reference) return;
     const double t1 = now();
     split_items();
-    grid.build(infos, small);
+    grid.build(infos, small, small_bounds);
     build_big();
     const double t2 = now();
-    grid_pairs();
-    big_pairs();
+    all_pairs();
     const double t3 = now();
     times.read += t1 - t0;
     times.build += t2 - t1;

@@ -111,16 +111,18 @@ void sort_block(RunRef* first, RunRef* last) {
         std::sort(first, last, run_less);
         return;
     }
-    std::vector<std::uint32_t> start(hi - lo + 2, 0);
+    thread_local std::vector<std::uint32_t> start, next;  // reused: no allocation per block
+    thread_local std::vector<RunRef> sorted;
+    start.assign(hi - lo + 2, 0);
     for (const RunRef* r = first; r < last; ++r) ++start[r->lo - lo + 1];
     for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-    std::vector<RunRef> sorted(n);
-    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    sorted.resize(n);
+    next.assign(start.begin(), start.end() - 1);
     for (const RunRef* r = first; r < last; ++r) sorted[next[r->lo - lo]++] = *r;
     for (std::size_t b = 0; b + 1 < start.size(); ++b) {
         insertion_sort_hi(sorted.data() + start[b], sorted.data() + start[b + 1]);
     }
-    std::copy(sorted.begin(), sorted.end(), first);
+    std::copy(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n), first);
 }
 
 // Sorts each block; records its contact count and whether a pair repeats.

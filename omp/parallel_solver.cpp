@@ -1,6 +1,8 @@
 // Parallel loops of the contact solver (see parallel_solver.hpp).
 #include "parallel_solver.hpp"
 
+#include <algorithm>
+
 #include "register.hpp"
 
 namespace parode::omp {
@@ -10,6 +12,31 @@ namespace {
 long min_bodies() { return min_parallel(4096); }
 long min_blocks() { return min_parallel(2048); }
 }  // namespace
+
+void ParallelContactSolver::cell_keys() {
+    const long n = static_cast<long>(keys().size());
+#pragma omp parallel for schedule(static) if (n >= min_blocks())
+    for (long k = 0; k < n; ++k) cell_key(static_cast<std::size_t>(k));
+}
+
+// Sorts halves concurrently and merges them: the keys are unique, so the
+// result equals the serial sort.
+void ParallelContactSolver::sort_keys() {
+    auto& k = keys();
+    const auto mid = k.begin() + static_cast<long>(k.size() / 2);
+    if (static_cast<long>(k.size()) < min_blocks()) {
+        ContactSolver::sort_keys();
+        return;
+    }
+#pragma omp parallel sections
+    {
+#pragma omp section
+        std::sort(k.begin(), mid);
+#pragma omp section
+        std::sort(mid, k.end());
+    }
+    std::inplace_merge(k.begin(), mid, k.end());
+}
 
 void ParallelContactSolver::prepare_bodies() {
     const long n = static_cast<long>(world_body_count());
@@ -30,7 +57,7 @@ void ParallelContactSolver::iterate() {
     for (int it = 0; it < iters; ++it) {
         for (int c = 0; c < nc; ++c) {
             const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
-#pragma omp for schedule(dynamic, 4)
+#pragma omp for schedule(static)
             for (long t = b; t < e; ++t) relax_cell(static_cast<std::size_t>(t));
         }
     }
@@ -47,10 +74,11 @@ void ParallelContactSolver::warm_start() {
     }
 }
 
-void ParallelContactSolver::body_wrenches() {
+void ParallelContactSolver::integrate() {
     const long n = static_cast<long>(world_body_count());
 #pragma omp parallel for schedule(static) if (n >= min_bodies())
-    for (long i = 0; i < n; ++i) body_wrench(static_cast<std::size_t>(i));
+    for (long i = 0; i < n; ++i) integrate_body(static_cast<std::size_t>(i));
 }
+
 
 }  // namespace parode::omp

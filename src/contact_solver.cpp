@@ -70,26 +70,31 @@ ContactSolver::ContactSolver(const Scene& scene) : scene_(scene) {
     cell_size_ = 4 * rmax * (1 + 1e-9);
 }
 
-void ContactSolver::colour(const World& world, const ContactBuffer& contacts) {
-    const std::size_t nb = world.body_count(), n = contacts.size();
-    struct Key {
-        std::uint64_t cell;  // colour in the top 3 bits, then the cell coordinates
-        std::uint32_t k;
-    };
-    std::vector<Key> keys(n);
+void ContactSolver::cell_key(std::size_t k) {
     constexpr std::int64_t kBias = 1 << 20;
-    for (std::size_t k = 0; k < n; ++k) {
-        const ContactRecord& r = contacts.items()[k];
-        const std::uint32_t owner = r.lo < nb ? r.lo : r.hi;  // a dynamic body
-        const dReal* x = dBodyGetPosition(world.body(owner));
-        std::uint64_t q[3], colour = 0;
-        for (int a = 0; a < 3; ++a) {
-            q[a] = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x[a] / cell_size_)) + kBias) & 0x1FFFFF;
-            colour |= (q[a] & 1) << a;
-        }
-        keys[k] = {colour << 61 | q[2] << 40 | q[1] << 20 | q[0], static_cast<std::uint32_t>(k)};
+    const ContactRecord& r = contacts_->items()[k];
+    const std::uint32_t owner = r.lo < world_->body_count() ? r.lo : r.hi;  // a dynamic body
+    const dReal* x = dBodyGetPosition(world_->body(owner));
+    std::uint64_t q[3], colour = 0;
+    for (int a = 0; a < 3; ++a) {
+        q[a] = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x[a] / cell_size_)) + kBias) & 0x1FFFFF;
+        colour |= (q[a] & 1) << a;
     }
-    std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.cell != b.cell ? a.cell < b.cell : a.k < b.k; });
+    keys_[k] = {colour << 61 | q[2] << 40 | q[1] << 20 | q[0], static_cast<std::uint32_t>(k)};
+}
+
+void ContactSolver::cell_keys() {
+    for (std::size_t k = 0; k < keys_.size(); ++k) cell_key(k);
+}
+
+void ContactSolver::sort_keys() { std::sort(keys_.begin(), keys_.end()); }
+
+void ContactSolver::colour(const World& /*world*/, const ContactBuffer& contacts) {
+    const std::size_t n = contacts.size();
+    keys_.resize(n);
+    cell_keys();
+    sort_keys();
+    const std::vector<CellKey>& keys = keys_;
     slot_contact_.resize(n);
     cell_start_.clear();
     colour_start_.assign(9, 0);
@@ -112,9 +117,9 @@ void ContactSolver::prepare_body(std::size_t i) {
     const double I[9] = {m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8], m.I[9], m.I[10]};
     double invIb[9];
     invert33(I, invIb);
-    rotate_tensor(R, I, B.Iw.data());
+    double Iw[9];
+    rotate_tensor(R, I, Iw);
     rotate_tensor(R, invIb, B.invI.data());
-    B.mass = m.mass;
     B.invm = 1.0 / m.mass;
     const dReal* f = dBodyGetForce(b);
     const dReal* t = dBodyGetTorque(b);
@@ -124,15 +129,17 @@ void ContactSolver::prepare_body(std::size_t i) {
     const bool gravity = dBodyGetGravityMode(b) != 0;
     double te[3] = {t[0], t[1], t[2]};
     if (dBodyGetGyroscopicMode(b)) {
-        double Iw[3], gyro[3];
-        mul33(B.Iw.data(), w, Iw);
-        cross(w, Iw, gyro);
+        double L[3], gyro[3];
+        mul33(Iw, w, L);
+        cross(w, L, gyro);
         for (int k = 0; k < 3; ++k) te[k] -= gyro[k];
     }
     double a[3];
     mul33(B.invI.data(), te, a);
     for (int k = 0; k < 3; ++k) {
-        B.tmp[k] = v[k] * fps + B.invm * (f[k] + (gravity ? m.mass * scene_.gravity[k] : 0.0));
+        B.acc[k] = B.invm * (f[k] + (gravity ? m.mass * scene_.gravity[k] : 0.0));
+        B.acc[3 + k] = a[k];
+        B.tmp[k] = v[k] * fps + B.acc[k];
         B.tmp[3 + k] = w[k] * fps + a[k];
     }
     fc_[i].fill(0.0);
@@ -280,12 +287,33 @@ void ContactSolver::relax(std::size_t k) {
     }
 }
 
-void ContactSolver::body_wrench(std::size_t i) {
-    const Body& B = bodies_[i];
-    const auto& f = fc_[i];
-    auto& w = wrench_[i];
-    for (int k = 0; k < 3; ++k) w[k] = B.mass * f[k];
-    mul33(B.Iw.data(), f.data() + 3, w.data() + 3);
+// The explicit update of ODE's steppers (dxStepBody, no damping, no finite
+// rotation): v += h (invM fe + fc); x += h v; q += h/2 (0, w) q, normalised.
+void ContactSolver::integrate_body(std::size_t i) {
+    Body& B = bodies_[i];
+    dBodyID b = world_->body(i);
+    const double h = scene_.dt;
+    const dReal* x = dBodyGetPosition(b);
+    const dReal* q = dBodyGetQuaternion(b);
+    const dReal* v0 = dBodyGetLinearVel(b);
+    const dReal* w0 = dBodyGetAngularVel(b);
+    double v[6];
+    for (int k = 0; k < 3; ++k) {
+        v[k] = v0[k] + h * (B.acc[k] + fc_[i][k]);
+        v[3 + k] = w0[k] + h * (B.acc[3 + k] + fc_[i][3 + k]);
+    }
+    const double* w = v + 3;
+    double dq[4] = {0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3]), 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2]),
+                    0.5 * (-w[0] * q[3] + w[1] * q[0] + w[2] * q[1]), 0.5 * (w[0] * q[2] - w[1] * q[1] + w[2] * q[0])};
+    double nq[4], len = 0;
+    for (int k = 0; k < 4; ++k) {
+        nq[k] = q[k] + h * dq[k];
+        len += nq[k] * nq[k];
+    }
+    len = 1.0 / std::sqrt(len);
+    for (int k = 0; k < 3; ++k) B.next[k] = x[k] + h * v[k];
+    for (int k = 0; k < 4; ++k) B.next[3 + k] = nq[k] * len;
+    for (int k = 0; k < 6; ++k) B.tmp[k] = v[k];  // tmp is free now: keep the new velocity
 }
 
 void ContactSolver::prepare_bodies() {
@@ -318,8 +346,22 @@ void ContactSolver::warm_start() {
     }
 }
 
-void ContactSolver::body_wrenches() {
-    for (std::size_t i = 0; i < bodies_.size(); ++i) body_wrench(i);
+void ContactSolver::integrate() {
+    for (std::size_t i = 0; i < bodies_.size(); ++i) integrate_body(i);
+}
+
+void ContactSolver::commit(World& world) const {
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: the setters move geoms in the space
+        const Body& B = bodies_[i];
+        dBodyID b = world.body(i);
+        dBodySetLinearVel(b, B.tmp[0], B.tmp[1], B.tmp[2]);
+        dBodySetAngularVel(b, B.tmp[3], B.tmp[4], B.tmp[5]);
+        dBodySetPosition(b, B.next[0], B.next[1], B.next[2]);
+        const dQuaternion q = {B.next[3], B.next[4], B.next[5], B.next[6]};
+        dBodySetQuaternion(b, q);
+        dBodySetForce(b, 0, 0, 0);
+        dBodySetTorque(b, 0, 0, 0);
+    }
 }
 
 void ContactSolver::step(World& world, const ContactBuffer& contacts) {
@@ -328,7 +370,6 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     const std::size_t nb = world.body_count();
     bodies_.resize(nb);
     fc_.resize(nb);
-    wrench_.resize(nb);
     colour(world, contacts);
     match_previous(contacts);
     blocks_.resize(contacts.size());
@@ -337,13 +378,8 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     if (scene_.solver.warm_start) warm_start();
     iterate();
     remember();
-    body_wrenches();
-    for (std::size_t i = 0; i < nb; ++i) {
-        const auto& w = wrench_[i];
-        dBodyAddForce(world.body(i), w[0], w[1], w[2]);
-        dBodyAddTorque(world.body(i), w[3], w[4], w[5]);
-    }
-    dWorldQuickStep(world.id(), scene_.dt);  // no contact joints: integration only
+    integrate();
+    commit(world);
 }
 
 }  // namespace parode
