@@ -37,6 +37,12 @@ def configs(scene, dt):
         c[f"dt{dt * 2:g}-it40"] = [f"scene.dt={dt * 2:g}", "solver.iterations=40"]
         c[f"dt{dt * 0.5:g}-it10"] = [f"scene.dt={dt * 0.5:g}", "solver.iterations=10"]
         c["grid-2threads"] = ["@--collide", "@grid", "@--threads", "@2"]
+        # The project contact solver (--solver parallel), alone and with fewer iterations.
+        par = ["@--collide", "@grid", "@--solver", "@parallel"]
+        c["parallel-1thread"] = par + ["@--threads", "@1"]
+        c["parallel-2threads"] = par + ["@--threads", "@2"]
+        for it in (5, 10):
+            c[f"parallel-it{it}"] = par + ["@--threads", "@2", f"solver.iterations={it}"]
     else:
         c["quick-it20"] = ["solver.stepper=quick", "solver.iterations=20"]
         c["quick-it50"] = ["solver.stepper=quick", "solver.iterations=50"]

@@ -9,8 +9,8 @@ namespace parode::omp {
 namespace {
 // Below these sizes a parallel region costs more than it saves; results are
 // the same either way.
-long min_bodies() { return min_parallel(4096); }
-long min_blocks() { return min_parallel(2048); }
+[[maybe_unused]] long min_bodies() { return min_parallel(4096); }
+[[maybe_unused]] long min_blocks() { return min_parallel(2048); }
 }  // namespace
 
 void ParallelContactSolver::cell_keys() {
@@ -52,7 +52,7 @@ void ParallelContactSolver::build_blocks() {
 
 void ParallelContactSolver::iterate() {
     const int nc = colours(), iters = iterations();
-    const bool big = static_cast<long>(blocks()) >= min_blocks();
+    [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
 #pragma omp parallel if (big)
     for (int it = 0; it < iters; ++it) {
         for (int c = 0; c < nc; ++c) {
@@ -65,7 +65,7 @@ void ParallelContactSolver::iterate() {
 
 void ParallelContactSolver::warm_start() {
     const int nc = colours();
-    const bool big = static_cast<long>(blocks()) >= min_blocks();
+    [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
 #pragma omp parallel if (big)
     for (int c = 0; c < nc; ++c) {
         const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
