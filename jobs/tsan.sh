@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Race detection for the OpenMP collision stage: builds the omp tests with
+# Race detection for the OpenMP stages (collision, the parallel contact solver,
+# the magnet pass): builds their tests with
 # clang and LLVM's OpenMP runtime (libomp) under ThreadSanitizer, with Archer
 # (libomp's TSan tool) so that TSan understands OpenMP's barriers and tasks,
 # and runs them (the tests themselves use 1 to 4 threads). Installs what it
@@ -35,7 +36,7 @@ cmake -S "$ROOT" -B "$BUILD" -G Ninja \
   -DOpenMP_CXX_FLAGS="-fopenmp=libomp" -DOpenMP_CXX_LIB_NAMES=omp \
   -DOpenMP_omp_LIBRARY="/usr/lib/llvm-$LLVM/lib/libomp.so" \
   -DPARODE_WITH_OPENMP=ON -DPARODE_WITH_MPI=OFF -DPARODE_WERROR=OFF >/dev/null
-cmake --build "$BUILD" --target test_omp_collide
+cmake --build "$BUILD" --target test_omp_collide test_solver test_omp_determinism
 
 export OMP_TOOL_LIBRARIES="$ARCHER"
 export ARCHER_OPTIONS="verbose=1"
@@ -44,6 +45,12 @@ status=0
 for threads in 2 4; do
   echo "tsan.sh: OMP_NUM_THREADS=$threads"
   OMP_NUM_THREADS=$threads "$BUILD/tests/omp/test_omp_collide" || status=$?
+  [ "$status" -eq 0 ] || break
+  # The solver and magnet tests pick their own thread counts (1 to 4).
+  if [ "$threads" -eq 2 ]; then
+    "$BUILD/tests/test_solver" --gtest_filter='Scenes/Classic.*' || status=$?
+    "$BUILD/tests/test_omp_determinism" --gtest_filter='*ParallelMagnetGather*' || status=$?
+  fi
   [ "$status" -eq 0 ] || break
 done
 if [ "$status" -eq 0 ]; then

@@ -78,6 +78,7 @@ struct CollideEngine::Impl {
     bool use_reference = false;
     std::vector<Lane> lanes;
     std::vector<dGeomID> list;
+    std::vector<dGeomID> scratch;  // the space's geoms, for the AABB refresh
     std::vector<GeomInfo> infos;
     std::vector<std::uint32_t> small, big;
     std::vector<std::uint8_t> bucket;
@@ -394,6 +395,32 @@ void CollideEngine::Impl::drain_deferred() {
     }
 }
 
+namespace {
+
+bool primitive_class(int cls) {
+    return cls == dSphereClass || cls == dBoxClass || cls == dCapsuleClass || cls == dCylinderClass ||
+           cls == dPlaneClass || cls == dRayClass;
+}
+
+// The AABB refresh on all threads: dGeomGetAABB of a primitive geom writes only
+// that geom, so distinct geoms may be refreshed concurrently. dSpaceClean then
+// finds them current and only clears the dirty flags (and refreshes nested
+// spaces and other classes, serially).
+void refresh_aabbs(dSpaceID space, int team, std::vector<dGeomID>& scratch) {
+    list_space(space, scratch);
+    const long n = static_cast<long>(scratch.size());
+    const dGeomID* geoms = scratch.data();
+#pragma omp parallel for num_threads(team) schedule(static) if (n >= 4096) default(none) shared(geoms, n)
+    for (long i = 0; i < n; ++i) {
+        if (!primitive_class(dGeomGetClass(geoms[i]))) continue;
+        dReal aabb[6];
+        dGeomGetAABB(geoms[i], aabb);
+    }
+    dSpaceClean(space);
+}
+
+}  // namespace
+
 CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) {}
 CollideEngine::~CollideEngine() = default;
 
@@ -405,7 +432,7 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
     Impl& m = *impl_;
     const int team = m.team_size();
     m.start(max_contacts, team);
-    dSpaceClean(space);
+    refresh_aabbs(space, team, m.scratch);
 #pragma omp parallel num_threads(team) default(none) shared(m, space, out)
 #pragma omp single
     {

@@ -74,6 +74,12 @@ void ParallelContactSolver::warm_start() {
     }
 }
 
+void ParallelContactSolver::remember() {
+    const long n = static_cast<long>(blocks());
+#pragma omp parallel for schedule(static) if (n >= min_blocks())
+    for (long s = 0; s < n; ++s) remember_block(static_cast<std::size_t>(s));
+}
+
 void ParallelContactSolver::integrate() {
     const long n = static_cast<long>(world_body_count());
 #pragma omp parallel for schedule(static) if (n >= min_bodies())

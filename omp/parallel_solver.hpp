@@ -22,6 +22,7 @@ private:
     void build_blocks() override;
     void iterate() override;
     void integrate() override;
+    void remember() override;
     void warm_start() override;
     void cell_keys() override;
     void sort_keys() override;

@@ -249,17 +249,17 @@ void ContactSolver::match_previous(const ContactBuffer& contacts) {
     }
 }
 
+void ContactSolver::remember_block(std::size_t s) {
+    const ContactRecord& r = contacts_->items()[slot_contact_[s]];
+    Remembered& m = previous_[slot_contact_[s]];
+    m.lo = r.lo;
+    m.hi = r.hi;
+    m.index = r.index;
+    for (int row = 0; row < 3; ++row) m.lambda[row] = row < blocks_[s].rows ? blocks_[s].lambda[row] : 0.0;
+}
+
 void ContactSolver::remember() {
-    const auto& items = contacts_->items();
-    previous_.resize(items.size());
-    for (std::size_t s = 0; s < blocks_.size(); ++s) {
-        const std::uint32_t k = slot_contact_[s];
-        Remembered& m = previous_[k];
-        m.lo = items[k].lo;
-        m.hi = items[k].hi;
-        m.index = items[k].index;
-        for (int row = 0; row < 3; ++row) m.lambda[row] = row < blocks_[s].rows ? blocks_[s].lambda[row] : 0.0;
-    }
+    for (std::size_t s = 0; s < blocks_.size(); ++s) remember_block(s);
 }
 
 void ContactSolver::relax(std::size_t k) {
@@ -377,6 +377,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     build_blocks();
     if (scene_.solver.warm_start) warm_start();
     iterate();
+    previous_.resize(contacts.size());
     remember();
     integrate();
     commit(world);

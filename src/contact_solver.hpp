@@ -61,6 +61,7 @@ protected:
     void relax(std::size_t k);
     void warm_block(std::size_t k);
     void integrate_body(std::size_t i);
+    void remember_block(std::size_t s);
 
     // The loops; the parallel solver overrides these.
     virtual void prepare_bodies();
@@ -68,6 +69,7 @@ protected:
     virtual void iterate();
     virtual void warm_start();
     virtual void integrate();
+    virtual void remember();
 
     // Contact k's cell (colour in the top 3 bits, then the cell coordinates);
     // (cell, contact) pairs are unique, so their sorted order is too.
@@ -94,7 +96,6 @@ private:
     void colour(const World& world, const ContactBuffer& contacts);
     void match_previous(const ContactBuffer& contacts);
     void commit(World& world) const;
-    void remember();
 
     struct Remembered {
         std::uint32_t lo, hi, index;
