@@ -98,17 +98,7 @@ void CellGrid::sort_dense(std::size_t ncells) {
     order_.resize(n);
     start_.resize(ncells + 1);
     count_slabs(tasks, nslabs);
-    slab_start_.assign(nslabs + 1, 0);
-    std::size_t acc = 0;
-    for (std::size_t z = 0; z < nslabs; ++z) {
-        slab_start_[z] = acc;
-        for (std::size_t t = 0; t < tasks; ++t) {
-            const std::size_t c = slab_pos_[t * nslabs + z];
-            slab_pos_[t * nslabs + z] = acc;
-            acc += c;
-        }
-    }
-    slab_start_[nslabs] = acc;
+    outer_inner_offsets(tasks, nslabs, slab_pos_, slab_start_);
     scatter_slabs(tasks, nslabs);
     sort_slabs(nslabs);
     start_[ncells] = static_cast<std::uint32_t>(n);

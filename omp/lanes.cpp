@@ -56,23 +56,6 @@ void count_blocks(const std::vector<Lane>& lanes, const BlockMap& map,
     }
 }
 
-// Exclusive prefix over blocks (outer) and lanes (inner): where each lane's
-// runs of each block start; block_start[b] where block b starts.
-void block_offsets(std::size_t nl, std::size_t nb, std::vector<std::size_t>& counts,
-                   std::vector<std::size_t>& block_start) {
-    block_start.assign(nb + 1, 0);
-    std::size_t acc = 0;
-    for (std::size_t b = 0; b < nb; ++b) {
-        block_start[b] = acc;
-        for (std::size_t l = 0; l < nl; ++l) {
-            const std::size_t c = counts[l * nb + b];
-            counts[l * nb + b] = acc;
-            acc += c;
-        }
-    }
-    block_start[nb] = acc;
-}
-
 void scatter_runs(const std::vector<Lane>& lanes, const BlockMap& map,
                   std::vector<std::size_t>& next, std::vector<RunRef>& refs) {
     const std::size_t nl = lanes.size(), nb = map.blocks;
@@ -197,7 +180,7 @@ void Lane::generic(dGeomID a, dGeomID b, int max_contacts) {
 void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out, MergeScratch& m) {
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next);
-    block_offsets(lanes.size(), map.blocks, m.next, m.block_start);
+    outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
     m.refs.resize(m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
     int repeated = 0;

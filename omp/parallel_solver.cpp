@@ -50,28 +50,28 @@ void ParallelContactSolver::build_blocks() {
     for (long s = 0; s < n; ++s) build_block(static_cast<std::size_t>(s));
 }
 
-void ParallelContactSolver::iterate() {
-    const int nc = colours(), iters = iterations();
+// `passes` sweeps over the colours; the cells of a colour in contiguous ranges
+// per thread (cells are sorted in space), a barrier after each colour.
+template <class F>
+void ParallelContactSolver::sweep_cells(int passes, F&& per_cell) {
+    const int nc = colours();
     [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
 #pragma omp parallel if (big)
-    for (int it = 0; it < iters; ++it) {
+    for (int it = 0; it < passes; ++it) {
         for (int c = 0; c < nc; ++c) {
             const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
 #pragma omp for schedule(static)
-            for (long t = b; t < e; ++t) relax_cell(static_cast<std::size_t>(t));
+            for (long t = b; t < e; ++t) per_cell(static_cast<std::size_t>(t));
         }
     }
 }
 
+void ParallelContactSolver::iterate() {
+    sweep_cells(iterations(), [this](std::size_t t) { relax_cell(t); });
+}
+
 void ParallelContactSolver::warm_start() {
-    const int nc = colours();
-    [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
-#pragma omp parallel if (big)
-    for (int c = 0; c < nc; ++c) {
-        const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
-#pragma omp for schedule(dynamic, 4)
-        for (long t = b; t < e; ++t) warm_cell(static_cast<std::size_t>(t));
-    }
+    sweep_cells(1, [this](std::size_t t) { warm_cell(t); });
 }
 
 void ParallelContactSolver::remember() {

@@ -18,6 +18,8 @@ public:
     std::string name() const override { return "parallel"; }
 
 private:
+    template <class F>
+    void sweep_cells(int passes, F&& per_cell);
     void prepare_bodies() override;
     void build_blocks() override;
     void iterate() override;

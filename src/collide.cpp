@@ -4,7 +4,6 @@
 // Trade-off: serial and O(space) in memory as ODE is; it is the ground truth.
 #include "collide.hpp"
 
-#include <stdexcept>
 
 namespace parode {
 namespace {
@@ -65,7 +64,7 @@ void collide2_reference(dGeomID geom, dSpaceID space, int max_contacts, ContactB
     out.sort_canonical();
 }
 
-BackendRegistry::BackendRegistry() {
+BackendRegistry::BackendRegistry() : Registry("collision backend") {
     add("ode-hash", [] { return std::make_unique<OdeSpaceBackend>("ode-hash", SpaceKind::Hash); });
     add("ode-sap", [] {
         return std::make_unique<OdeSpaceBackend>("ode-sap", SpaceKind::SweepAndPrune);
@@ -76,32 +75,6 @@ BackendRegistry::BackendRegistry() {
 BackendRegistry& BackendRegistry::instance() {
     static BackendRegistry registry;
     return registry;
-}
-
-void BackendRegistry::add(const std::string& name, BackendFactory factory) {
-    for (auto& e : entries_) {
-        if (e.first == name) {
-            e.second = std::move(factory);
-            return;
-        }
-    }
-    entries_.emplace_back(name, std::move(factory));
-}
-
-std::unique_ptr<CollideBackend> BackendRegistry::make(const std::string& name) const {
-    for (const auto& e : entries_) {
-        if (e.first == name) return e.second();
-    }
-    std::string known;
-    for (const auto& e : entries_) known += (known.empty() ? "" : ", ") + e.first;
-    throw std::invalid_argument("unknown collision backend '" + name + "' (expected one of: " +
-                                known + ")");
-}
-
-std::vector<std::string> BackendRegistry::names() const {
-    std::vector<std::string> out;
-    for (const auto& e : entries_) out.push_back(e.first);
-    return out;
 }
 
 }  // namespace parode

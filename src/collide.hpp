@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "contacts.hpp"
+#include "registry.hpp"
 
 namespace parode {
 
@@ -32,19 +33,13 @@ public:
     virtual void set_threads(int /*threads*/) {}
 };
 
-using BackendFactory = std::function<std::unique_ptr<CollideBackend>()>;
-
 // Name -> factory. The reference backends are always present; omp/ adds more.
-class BackendRegistry {
+class BackendRegistry : public Registry<CollideBackend> {
 public:
     static BackendRegistry& instance();
-    void add(const std::string& name, BackendFactory factory);
-    std::unique_ptr<CollideBackend> make(const std::string& name) const;
-    std::vector<std::string> names() const;
 
 private:
     BackendRegistry();
-    std::vector<std::pair<std::string, BackendFactory>> entries_;
 };
 
 // Reference collision through ODE's own dSpaceCollide (exposed for tests).

@@ -1,8 +1,6 @@
 // Solver backends and their registry (see solver.hpp).
 #include "solver.hpp"
 
-#include <stdexcept>
-
 #include "contact_solver.hpp"
 
 namespace parode {
@@ -38,7 +36,7 @@ std::string contact_solver_unsupported(const Scene& scene) {
     return "";
 }
 
-SolverRegistry::SolverRegistry() {
+SolverRegistry::SolverRegistry() : Registry("solver") {
     add("ode", [](const Scene& s) { return make_ode_solver(s, ""); });
     add("pgs", [](const Scene& s) -> std::unique_ptr<SolverBackend> {
         const std::string no = contact_solver_unsupported(s);
@@ -50,31 +48,6 @@ SolverRegistry::SolverRegistry() {
 SolverRegistry& SolverRegistry::instance() {
     static SolverRegistry registry;
     return registry;
-}
-
-void SolverRegistry::add(const std::string& name, SolverFactory factory) {
-    for (auto& e : entries_) {
-        if (e.first == name) {
-            e.second = std::move(factory);
-            return;
-        }
-    }
-    entries_.emplace_back(name, std::move(factory));
-}
-
-std::unique_ptr<SolverBackend> SolverRegistry::make(const std::string& name, const Scene& scene) const {
-    for (const auto& e : entries_) {
-        if (e.first == name) return e.second(scene);
-    }
-    std::string known;
-    for (const auto& e : entries_) known += (known.empty() ? "" : ", ") + e.first;
-    throw std::invalid_argument("unknown solver '" + name + "' (expected one of: " + known + ")");
-}
-
-std::vector<std::string> SolverRegistry::names() const {
-    std::vector<std::string> out;
-    for (const auto& e : entries_) out.push_back(e.first);
-    return out;
 }
 
 }  // namespace parode

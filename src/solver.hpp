@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "contacts.hpp"
+#include "registry.hpp"
 #include "world.hpp"
 
 namespace parode {
@@ -27,19 +28,12 @@ public:
     virtual void step(World& world, const ContactBuffer& contacts) = 0;
 };
 
-using SolverFactory = std::function<std::unique_ptr<SolverBackend>(const Scene&)>;
-
-class SolverRegistry {
+class SolverRegistry : public Registry<SolverBackend, const Scene&> {
 public:
     static SolverRegistry& instance();
-    void add(const std::string& name, SolverFactory factory);
-    // Throws std::invalid_argument for an unknown name.
-    std::unique_ptr<SolverBackend> make(const std::string& name, const Scene& scene) const;
-    std::vector<std::string> names() const;
 
 private:
     SolverRegistry();
-    std::vector<std::pair<std::string, SolverFactory>> entries_;
 };
 
 // Empty when the project's contact solver can run `scene`, else the reason not.

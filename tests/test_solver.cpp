@@ -17,20 +17,8 @@ using namespace parode;
 
 namespace {
 
-// `sc` must outlive the pipeline (it keeps a reference). `force` runs the
-// parallel paths at any size (results are the same; only the cost differs).
 std::unique_ptr<Pipeline> run_with(const Scene& sc, int steps, const std::string& solver, int threads, bool force = true) {
-    parode::omp::register_backends();
-    parode::omp::set_threads(threads);
-    parode::omp::set_min_parallel(force ? 0 : -1);
-    RunOptions opt;
-    opt.collide = "grid";
-    opt.solver = solver;
-    opt.threads = threads;
-    auto p = std::make_unique<Pipeline>(sc, opt);
-    for (int i = 0; i < steps; ++i) p->step();
-    p->finish();
-    return p;
+    return test::run(sc, steps, "grid", threads, solver, force);
 }
 
 // Keeps the scene alive (at a fixed address) as long as the pipeline.

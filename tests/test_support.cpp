@@ -11,12 +11,14 @@ Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets) {
     return load_scene(repo_path(rel), sets);
 }
 
-std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide, int threads) {
+std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide, int threads,
+                              const std::string& solver, bool force_parallel) {
     parode::omp::register_backends();
     parode::omp::set_threads(threads);
-    parode::omp::set_min_parallel(0);  // exercise the parallel paths at any size
+    parode::omp::set_min_parallel(force_parallel ? 0 : -1);
     RunOptions opt;
     opt.collide = collide;
+    opt.solver = solver;
     opt.threads = threads;
     auto p = std::make_unique<Pipeline>(scene, opt);
     for (int s = 0; s < steps; ++s) p->step();

@@ -14,7 +14,10 @@ namespace parode::test {
 std::string repo_path(const std::string& rel);
 Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets = {});
 // Run `steps` steps (then finish()) and return the pipeline for inspection.
-std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1);
+// `scene` must outlive the pipeline. `force_parallel` runs the OpenMP paths at
+// any size (results are the same; only the cost differs).
+std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1,
+                              const std::string& solver = "ode", bool force_parallel = true);
 std::uint64_t hash_after(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1);
 Vec3 position(const Pipeline& p, std::size_t body);
 Vec3 velocity(const Pipeline& p, std::size_t body);
