@@ -19,7 +19,7 @@ namespace parode::omp {
 void register_backends() {
     BackendRegistry::instance().add("grid", [] { return std::make_unique<GridBackend>(); });
     set_magnet_gather(&gather_magnets_parallel);
-    SolverRegistry::instance().add("parallel", [](const Scene& s) -> std::unique_ptr<SolverBackend> {
+    SolverRegistry::instance().add("parallel", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {
         const std::string no = contact_solver_unsupported(s);
         if (!no.empty()) return make_ode_solver(s, "parallel solver not used: " + no);
         return std::make_unique<ParallelContactSolver>(s);

@@ -1,8 +1,10 @@
 // The solve stage's interface: a SolverBackend advances the world by one step
 // given the step's contacts in canonical order. "ode" runs ODE's own stepper
 // (dWorldQuickStep or dWorldStep, from the scene) on contact joints made by the
-// joints stage; "pgs" (serial, src/) and "parallel" (OpenMP, omp/) run the
-// project's contact solver and leave ODE only the integration.
+// joints stage; "ode-threaded" is the same on ODE's built-in thread pool
+// (islands and QuickStep stages in parallel; not reproducible run to run with
+// 2+ threads, which the report states); "pgs" (serial, src/) and "parallel"
+// (OpenMP, omp/) run the project's contact solver.
 // Trade-off: the project solver handles contact-only scenes (no scene joints,
 // no auto-disable); other scenes stay on ODE's stepper and the report says why.
 #pragma once
@@ -28,7 +30,8 @@ public:
     virtual void step(World& world, const ContactBuffer& contacts) = 0;
 };
 
-class SolverRegistry : public Registry<SolverBackend, const Scene&> {
+// Factories take the scene and the run's thread count.
+class SolverRegistry : public Registry<SolverBackend, const Scene&, int> {
 public:
     static SolverRegistry& instance();
 

@@ -60,6 +60,8 @@ struct Accuracy {
     int steps;
 };
 
+void PrintTo(const Accuracy& a, std::ostream* os) { *os << a.scene << ", " << a.steps << " steps"; }
+
 class AgainstReference : public ::testing::TestWithParam<Accuracy> {};
 
 TEST_P(AgainstReference, ParallelErrorNoWorseThanQuickStepAtSameIterations) {
@@ -150,5 +152,19 @@ INSTANTIATE_TEST_SUITE_P(Hard, HardCase,
                              for (char& ch : n) ch = ch == '-' ? '_' : ch;
                              return n;
                          });
+
+}  // namespace
+
+namespace {
+
+// ODE's built-in threading (--solver ode-threaded) is the measured alternative to
+// the project solver: on one thread it is ODE's serial stepper exactly.
+TEST(OdeThreaded, OnOneThreadGivesTheSerialOdeStateHash) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=216"});
+    auto serial = test::run(sc, 100, "ode-hash", 1, "ode");
+    auto threaded = test::run(sc, 100, "ode-hash", 1, "ode-threaded");
+    EXPECT_EQ(threaded->solver().name(), "ode-threaded");
+    EXPECT_EQ(hex64(threaded->last().state_hash), hex64(serial->last().state_hash));
+}
 
 }  // namespace
