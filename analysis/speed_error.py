@@ -52,7 +52,7 @@ def row(scene, name, r):
     err, label = scene_error(scene, e)
     sim_s = r["steps"] * r["dt"]
     s = r["solver"]
-    return {"config": name, "dt": r["dt"], "stepper": s["stepper"], "iterations": s["iterations"],
+    return {"config": name, "dt": r["dt"], "solver": r["backends"]["solve"], "iterations": s["iterations"],
             "sor_w": s["sor_w"], "erp": s["erp"], "cfm": s["cfm"], "threads": r["threads"],
             "collide": r["backends"]["collide"], "cost_s_per_sim_s": r["wall_s"] / sim_s, "error": err,
             "rms_0.05s": at_time(e["series"], 0.05), "final_rms": e["final"]["rms"],
@@ -78,7 +78,7 @@ def write_tables(scene, rows, label, out):
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    cols = ["config", "dt", "stepper", "iterations", "sor_w", "erp", "cfm", "threads", "cost_s_per_sim_s", "error",
+    cols = ["config", "dt", "solver", "iterations", "sor_w", "erp", "cfm", "threads", "cost_s_per_sim_s", "error",
             "rms_0.05s", "escaped", "max_penetration", "energy_max_gain"]
     lines = [f"### {scene}: error = {label}", "", "| " + " | ".join(cols + ["front"]) + " |",
              "|" + "---|" * (len(cols) + 1)]
