@@ -9,12 +9,14 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 
 #include "cli_common.hpp"
+#include "grid_collide.hpp"
 #include "hash.hpp"
 #include "pipeline.hpp"
 #include "scene_file.hpp"
@@ -24,6 +26,7 @@ namespace {
 
 struct Variant {
     std::string label;
+    std::vector<std::array<double, 6>> phases;  // grid: refresh+read, build, pairs, deferred, merge, total
     std::unique_ptr<CollideBackend> backend;
     std::unique_ptr<World> world;
     std::vector<double> seconds;
@@ -45,6 +48,7 @@ Variant make_variant(const Scene& scene, const std::string& spec) {
     v.backend = BackendRegistry::instance().make(name);
     v.backend->set_threads(colon == std::string::npos ? 1 : std::stoi(spec.substr(colon + 1)));
     v.world = std::make_unique<World>(scene, v.backend->space_kind());
+    v.backend->set_geoms(v.world->space(), &v.world->geoms());  // as the pipeline does
     return v;
 }
 
@@ -57,6 +61,13 @@ void copy_state(const World& from, World& to) {
         if (dBodyIsEnabled(a)) dBodyEnable(b);
         else dBodyDisable(b);
     }
+}
+
+void record_phases(Variant& v) {
+    const auto* grid = dynamic_cast<const parode::omp::GridBackend*>(v.backend.get());
+    if (!grid) return;
+    const auto& t = grid->engine().last_phase_times();
+    v.phases.push_back({t.read, t.build, t.pairs, t.deferred, t.merge, v.seconds.back()});
 }
 
 double median(std::vector<double> v) {
@@ -77,6 +88,7 @@ bool sample(const World& driver, std::vector<Variant>& vars, int repeats, int ma
             const auto t0 = std::chrono::steady_clock::now();
             vars[k].backend->collide(vars[k].world->space(), max_contacts, out);
             vars[k].seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+            record_phases(vars[k]);
             vars[k].rss_mb = std::max(vars[k].rss_mb, peak_rss_mb() - before);
             vars[k].contacts = out.size();
             digests[k] = contact_digest(out);
@@ -97,6 +109,17 @@ void print_table(const Scene& scene, const std::vector<Variant>& vars, bool iden
            << std::setw(10) << 1e3 * m << std::setw(10) << 1e6 * m / n << std::setw(12) << std::setprecision(2)
            << (m > 0 ? base / m : 0.0) << std::setw(11) << v.contacts << std::setw(9) << std::setprecision(1)
            << v.rss_mb << "\n";
+    }
+    for (const auto& v : vars) {
+        if (v.phases.empty()) continue;
+        const char* names[6] = {"read", "build", "pairs", "deferred", "merge", "total"};
+        os << "  " << v.label << " phases (median ms):";
+        for (int p = 0; p < 6; ++p) {
+            std::vector<double> x;
+            for (const auto& ph : v.phases) x.push_back(ph[static_cast<std::size_t>(p)]);
+            os << ' ' << names[p] << ' ' << std::setprecision(3) << 1e3 * median(x);
+        }
+        os << "\n";
     }
     os << "  contact sets " << (identical ? "identical across variants (bit for bit)" : "DIFFER between variants") << "\n";
 }

@@ -70,11 +70,16 @@ void read_extent(GeomInfo& info) {
 
 }  // namespace
 
-GeomInfo read_geom(dGeomID g) {
+GeomInfo read_geom(dGeomID g, bool primitives_only) {
     GeomInfo info;
     const int cls = dGeomGetClass(g);
     info.flags = class_flags(g, cls);
     if (dGeomIsEnabled(g) && !zero_sized(g, cls)) info.flags |= kEnabled;
+    if (primitives_only && !(info.flags & kSafe)) {
+        info.flags |= kStaleAabb;
+        info.prim.geom = g;
+        return info;
+    }
     dGeomGetAABB(g, info.aabb);
     info.body = dGeomGetBody(g);
     info.category = dGeomGetCategoryBits(g);
@@ -83,6 +88,15 @@ GeomInfo read_geom(dGeomID g) {
     read_extent(info);
     read_prim(g, info.flags, info.prim);
     return info;
+}
+
+void refresh_stale(std::vector<GeomInfo>& infos) {
+    for (GeomInfo& info : infos) {
+        if (!(info.flags & kStaleAabb)) continue;
+        dGeomID g = info.prim.geom;
+        if (dGeomIsSpace(g)) dSpaceClean(reinterpret_cast<dSpaceID>(g));
+        info = read_geom(g);
+    }
 }
 
 void list_space(dSpaceID space, std::vector<dGeomID>& out) {
@@ -99,7 +113,7 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo
     std::uint32_t any = 0;
 #pragma omp taskloop num_tasks(task_count(n, 1024)) default(none) firstprivate(dst, src, n) reduction(| : any)
     for (std::size_t i = 0; i < n; ++i) {
-        dst[i] = read_geom(src[i]);
+        dst[i] = read_geom(src[i], true);
         any |= dst[i].flags;
     }
     return any;
@@ -122,7 +136,7 @@ std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
         {
             std::uint32_t f = 0;
             for (std::size_t i = begin; i < end; ++i) {
-                dst[i] = read_geom(src[i]);
+                dst[i] = read_geom(src[i], true);
                 f |= dst[i].flags;
             }
             flags[b] = f;

@@ -25,6 +25,7 @@ enum GeomFlag : std::uint32_t {
     kUser = 1u << 6,        // user class: its AABB test is unreachable, use ODE
     kCustomBits = 1u << 7,  // category or collide bits differ from all-ones
     kFinite = 1u << 8,      // AABB finite on all six sides
+    kStaleAabb = 1u << 9,   // not a primitive: AABB left for the serial refresh
 };
 
 struct GeomInfo {
@@ -37,8 +38,14 @@ struct GeomInfo {
     PrimData prim;  // geom, id, and sphere/plane parameters
 };
 
-// Read one geom (its AABB must be current).
-GeomInfo read_geom(dGeomID g);
+// Read one geom, bringing its AABB up to date (dGeomGetAABB). With
+// `primitives_only`, only primitive geoms are refreshed (safe concurrently:
+// the call writes that geom alone); others get kStaleAabb for the serial
+// refresh_stale(), since a nested space's AABB needs dSpaceClean first.
+GeomInfo read_geom(dGeomID g, bool primitives_only = false);
+
+// Serially refreshes and re-reads the kStaleAabb entries of `infos`.
+void refresh_stale(std::vector<GeomInfo>& infos);
 
 // The geoms of a space in ODE's list order (serial: ODE's enumerator is stateful).
 void list_space(dSpaceID space, std::vector<dGeomID>& out);

@@ -78,7 +78,8 @@ struct CollideEngine::Impl {
     bool use_reference = false;
     std::vector<Lane> lanes;
     std::vector<dGeomID> list;
-    std::vector<dGeomID> scratch;  // the space's geoms, for the AABB refresh
+    dSpaceID flat_space = nullptr;                   // set_geoms hint
+    const std::vector<dGeomID>* flat_geoms = nullptr;
     std::vector<GeomInfo> infos;
     std::vector<std::uint32_t> small, big;
     std::vector<std::uint8_t> bucket;
@@ -146,7 +147,12 @@ void CollideEngine::Impl::consider(Lane& l, const GridEntry& a, const PrimData& 
 }
 
 void CollideEngine::Impl::read_space(dSpaceID space) {
-    if (read_space_pipelined(space, list, infos) & kUser) use_reference = true;
+    const bool flat = space == flat_space && flat_geoms &&
+                      flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+    if (flat) list = *flat_geoms;
+    const std::uint32_t any = flat ? read_geoms(list, infos) : read_space_pipelined(space, list, infos);
+    if (any & kStaleAabb) refresh_stale(infos);
+    if (any & kUser) use_reference = true;
 }
 
 // Marks each geom skipped (0), small (1) or big (2), counting and bounding the
@@ -395,36 +401,14 @@ void CollideEngine::Impl::drain_deferred() {
     }
 }
 
-namespace {
-
-bool primitive_class(int cls) {
-    return cls == dSphereClass || cls == dBoxClass || cls == dCapsuleClass || cls == dCylinderClass ||
-           cls == dPlaneClass || cls == dRayClass;
-}
-
-// The AABB refresh on all threads: dGeomGetAABB of a primitive geom writes only
-// that geom, so distinct geoms may be refreshed concurrently. dSpaceClean then
-// finds them current and only clears the dirty flags (and refreshes nested
-// spaces and other classes, serially).
-void refresh_aabbs(dSpaceID space, int team, std::vector<dGeomID>& scratch) {
-    list_space(space, scratch);
-    const long n = static_cast<long>(scratch.size());
-    const dGeomID* geoms = scratch.data();
-#pragma omp parallel for num_threads(team) schedule(static) if (n >= 4096) default(none) shared(geoms, n)
-    for (long i = 0; i < n; ++i) {
-        if (!primitive_class(dGeomGetClass(geoms[i]))) continue;
-        dReal aabb[6];
-        dGeomGetAABB(geoms[i], aabb);
-    }
-    dSpaceClean(space);
-}
-
-}  // namespace
-
 CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) {}
 CollideEngine::~CollideEngine() = default;
 
 void CollideEngine::set_threads(int threads) { impl_->threads = std::max(0, threads); }
+void CollideEngine::set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) {
+    impl_->flat_space = geoms ? space : nullptr;
+    impl_->flat_geoms = geoms;
+}
 int CollideEngine::threads() const { return impl_->team_size(); }
 const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
 
@@ -432,7 +416,8 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
     Impl& m = *impl_;
     const int team = m.team_size();
     m.start(max_contacts, team);
-    refresh_aabbs(space, team, m.scratch);
+    // No dSpaceClean: the parallel read refreshes the primitives' AABBs and the
+    // rest serially (refresh_stale); ODE's dirty flags stay set, harmlessly.
 #pragma omp parallel num_threads(team) default(none) shared(m, space, out)
 #pragma omp single
     {

@@ -44,6 +44,9 @@ public:
 
     // Threads of the team; 0 (default) means omp_get_max_threads().
     void set_threads(int threads);
+    // `space` holds exactly `geoms` and no nested space: read them in parallel
+    // instead of walking ODE's list (nullptr forgets the hint).
+    void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms);
     int threads() const;
 
     // Every contact of `space`, recursing into nested spaces; equals
@@ -81,6 +84,8 @@ public:
         engine_.collide(space, max_contacts, out);
     }
     void set_threads(int threads) override { engine_.set_threads(threads); }
+    void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
+    const CollideEngine& engine() const { return engine_; }
 
 private:
     CollideEngine engine_;

@@ -31,6 +31,10 @@ public:
     virtual void collide(dSpaceID space, int max_contacts, ContactBuffer& out) = 0;
     // Threads the backend may use (1 for serial backends).
     virtual void set_threads(int /*threads*/) {}
+    // A hint: `space` holds exactly these geoms and no nested space (World's
+    // flat space), so a backend may read them without walking ODE's list.
+    // The pointer must stay valid while the backend collides that space.
+    virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

@@ -17,6 +17,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
     world_ = std::make_unique<World>(scene, backend_->space_kind());
+    backend_->set_geoms(world_->space(), &world_->geoms());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) {

@@ -35,6 +35,7 @@ public:
     const std::vector<dBodyID>& bodies() const { return bodies_; }
     std::size_t geom_count() const { return geoms_.size(); }
     dGeomID geom(std::size_t i) const { return geoms_[i]; }
+    const std::vector<dGeomID>& geoms() const { return geoms_; }  // every geom of space(), by id
     int geom_material(std::size_t i) const { return geom_material_[i]; }
     dJointID joint(std::size_t i) const { return joints_[i]; }
 
