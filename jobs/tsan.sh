@@ -36,7 +36,7 @@ cmake -S "$ROOT" -B "$BUILD" -G Ninja \
   -DOpenMP_CXX_FLAGS="-fopenmp=libomp" -DOpenMP_CXX_LIB_NAMES=omp \
   -DOpenMP_omp_LIBRARY="/usr/lib/llvm-$LLVM/lib/libomp.so" \
   -DPARODE_WITH_OPENMP=ON -DPARODE_WITH_MPI=OFF -DPARODE_WERROR=OFF >/dev/null
-cmake --build "$BUILD" --target test_omp_collide test_solver test_omp_determinism
+cmake --build "$BUILD" --target test_omp_collide parode
 
 export OMP_TOOL_LIBRARIES="$ARCHER"
 export ARCHER_OPTIONS="verbose=1"
@@ -46,11 +46,12 @@ for threads in 2 4; do
   echo "tsan.sh: OMP_NUM_THREADS=$threads"
   OMP_NUM_THREADS=$threads "$BUILD/tests/omp/test_omp_collide" || status=$?
   [ "$status" -eq 0 ] || break
-  # The solver and magnet tests pick their own thread counts (1 to 4).
-  if [ "$threads" -eq 2 ]; then
-    "$BUILD/tests/test_solver" --gtest_filter='Scenes/Classic.*' || status=$?
-    "$BUILD/tests/test_omp_determinism" --gtest_filter='*ParallelMagnetGather*' || status=$?
-  fi
+  # The whole pipeline at a size where every parallel path runs: grid
+  # collision, the parallel contact solver and (magnetic-tennis) the magnet pass.
+  for scene in tennis magnetic-tennis; do
+    "$BUILD/parode" run "$ROOT/jobs/scenes/$scene.toml" --set catoms.count=8000 --steps 20 \
+      --collide grid --solver parallel --threads "$threads" -q || status=$?
+  done
   [ "$status" -eq 0 ] || break
 done
 if [ "$status" -eq 0 ]; then

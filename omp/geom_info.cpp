@@ -110,12 +110,12 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
     const dGeomID* src = geoms.data();
+    // The union of flags is taken after the tasks from what they wrote (no task
+    // reduction: each task writes only its own entries).
+#pragma omp taskloop num_tasks(task_count(n, 1024)) default(none) firstprivate(dst, src, n)
+    for (std::size_t i = 0; i < n; ++i) dst[i] = read_geom(src[i], true);
     std::uint32_t any = 0;
-#pragma omp taskloop num_tasks(task_count(n, 1024)) default(none) firstprivate(dst, src, n) reduction(| : any)
-    for (std::size_t i = 0; i < n; ++i) {
-        dst[i] = read_geom(src[i], true);
-        any |= dst[i].flags;
-    }
+    for (std::size_t i = 0; i < n; ++i) any |= dst[i].flags;
     return any;
 }
 

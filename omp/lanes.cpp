@@ -116,18 +116,22 @@ void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef
     const std::size_t* start = block_start.data();
     RunRef* ref = refs.data();
     std::size_t* count = contacts.data();
-    int rep = 0;
-#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(start, ref, count, nb) reduction(|| : rep)
+    // One flag per block, combined after the taskloop (no task reduction: each
+    // task writes only its own entries).
+    std::vector<unsigned char> rep_of(nb, 0);
+    unsigned char* rep = rep_of.data();
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(start, ref, count, nb, rep)
     for (std::size_t b = 0; b < nb; ++b) {
         sort_block(ref + start[b], ref + start[b + 1]);
         std::size_t c = 0;
         for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
             c += ref[i].count;
-            if (i > start[b] && ref[i].lo == ref[i - 1].lo && ref[i].hi == ref[i - 1].hi) rep = 1;
+            if (i > start[b] && ref[i].lo == ref[i - 1].lo && ref[i].hi == ref[i - 1].hi) rep[b] = 1;
         }
         count[b] = c;
     }
-    repeated = rep;
+    repeated = 0;
+    for (unsigned char r : rep_of) repeated = repeated || r;
 }
 
 void copy_blocks(const std::vector<Lane>& lanes, const std::vector<std::size_t>& block_start,
