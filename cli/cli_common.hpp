@@ -35,7 +35,6 @@ struct BenchArgs {
     std::string scene;
     std::vector<std::string> sets;
     std::vector<std::string> backends;
-    std::vector<int> threads;
     int steps = 0;
     int every = 50;
     int repeats = 5;

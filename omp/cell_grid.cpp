@@ -189,11 +189,7 @@ void CellGrid::fill_entries(const std::vector<GeomInfo>& infos,
     for (std::size_t s = 0; s < n; ++s) {
         const std::uint32_t j = order_[s];
         const GeomInfo& g = info[item[j]];
-        GridEntry& e = entries_[s];
-        std::copy(g.aabb, g.aabb + 6, e.aabb);
-        e.body = g.body;
-        e.info = item[j];
-        e.flags = g.flags;
+        entries_[s] = grid_entry(g, item[j]);
         prims_[s] = g.prim;
         keys_[s] = raw_keys_[j];
     }

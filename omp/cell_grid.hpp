@@ -28,6 +28,16 @@ struct alignas(64) GridEntry {
     std::uint32_t flags;  // GeomFlag bits
 };
 
+// The grid entry of geom `g`, which is entry `info` of the GeomInfo table.
+inline GridEntry grid_entry(const GeomInfo& g, std::uint32_t info) {
+    GridEntry e;
+    std::copy(g.aabb, g.aabb + 6, e.aabb);
+    e.body = g.body;
+    e.info = info;
+    e.flags = g.flags;
+    return e;
+}
+
 // Bounds of the geoms' minimum corners and their largest extent.
 struct CellBounds {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};

@@ -23,6 +23,16 @@ struct PrimData {
     dReal p[4];  // sphere: centre (p[0..2]) and radius (p[3]); plane: a, b, c, d
 };
 
+// The fields ODE's colliders set alike on every contact they write.
+inline void contact_header(dContactGeom& c, dGeomID g1, dGeomID g2) {
+    c.g1 = g1;
+    c.g2 = g2;
+    c.side1 = -1;
+    c.side2 = -1;
+    c.pos[3] = 0;
+    c.normal[3] = 0;
+}
+
 // dCollide(s1, s2) for two spheres, s1 given first. Returns the contact count
 // (0 or 1) and fills `c` as ODE does.
 inline int sphere_sphere(const PrimData& s1, const PrimData& s2, dContactGeom& c) {
@@ -39,12 +49,7 @@ inline int sphere_sphere(const PrimData& s1, const PrimData& s2, dContactGeom& c
     if (d2 > sum * sum * REAL(1.0000000001) && sum >= 0) return 0;
     const dReal d = dSqrt(d2);
     if (d > sum) return 0;
-    c.g1 = s1.geom;
-    c.g2 = s2.geom;
-    c.side1 = -1;
-    c.side2 = -1;
-    c.pos[3] = 0;
-    c.normal[3] = 0;
+    contact_header(c, s1.geom, s2.geom);
     if (d <= 0) {
         for (int k = 0; k < 3; ++k) c.pos[k] = s1.p[k];
         c.normal[0] = 1;
@@ -68,12 +73,7 @@ inline int sphere_plane(const PrimData& s, const PrimData& pl, dContactGeom& c) 
     const dReal k = dCalcVectorDot3(s.p, pl.p);
     const dReal depth = pl.p[3] - k + radius;
     if (!(depth >= 0)) return 0;
-    c.g1 = s.geom;
-    c.g2 = pl.geom;
-    c.side1 = -1;
-    c.side2 = -1;
-    c.pos[3] = 0;
-    c.normal[3] = 0;
+    contact_header(c, s.geom, pl.geom);
     for (int j = 0; j < 3; ++j) c.normal[j] = pl.p[j];
     for (int j = 0; j < 3; ++j) c.pos[j] = s.p[j] - pl.p[j] * radius;
     c.depth = depth;

@@ -214,11 +214,7 @@ void CollideEngine::Impl::build_big() {
     big_prims.resize(big.size());
     for (std::size_t j = 0; j < big.size(); ++j) {
         const GeomInfo& g = infos[big[j]];
-        GridEntry& e = big_entries[j];
-        std::copy(g.aabb, g.aabb + 6, e.aabb);
-        e.body = g.body;
-        e.info = big[j];
-        e.flags = g.flags;
+        big_entries[j] = grid_entry(g, big[j]);
         big_prims[j] = g.prim;
     }
 }

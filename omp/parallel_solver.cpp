@@ -11,12 +11,17 @@ namespace {
 // the same either way.
 [[maybe_unused]] long min_bodies() { return min_parallel(4096); }
 [[maybe_unused]] long min_blocks() { return min_parallel(2048); }
+
+// f(i) for i in [0, n), in contiguous ranges per thread when n >= min_items.
+template <class F>
+void parallel_for(long n, [[maybe_unused]] long min_items, F&& f) {
+#pragma omp parallel for schedule(static) if (n >= min_items)
+    for (long i = 0; i < n; ++i) f(static_cast<std::size_t>(i));
+}
 }  // namespace
 
 void ParallelContactSolver::cell_keys() {
-    const long n = static_cast<long>(keys().size());
-#pragma omp parallel for schedule(static) if (n >= min_blocks())
-    for (long k = 0; k < n; ++k) cell_key(static_cast<std::size_t>(k));
+    parallel_for(static_cast<long>(keys().size()), min_blocks(), [this](std::size_t k) { cell_key(k); });
 }
 
 // Sorts halves concurrently and merges them: the keys are unique, so the
@@ -39,9 +44,7 @@ void ParallelContactSolver::sort_keys() {
 }
 
 void ParallelContactSolver::prepare_bodies() {
-    const long n = static_cast<long>(world_body_count());
-#pragma omp parallel for schedule(static) if (n >= min_bodies())
-    for (long i = 0; i < n; ++i) prepare_body(static_cast<std::size_t>(i));
+    parallel_for(static_cast<long>(world_body_count()), min_bodies(), [this](std::size_t i) { prepare_body(i); });
 }
 
 void ParallelContactSolver::build_blocks() {
@@ -75,15 +78,11 @@ void ParallelContactSolver::warm_start() {
 }
 
 void ParallelContactSolver::remember() {
-    const long n = static_cast<long>(blocks());
-#pragma omp parallel for schedule(static) if (n >= min_blocks())
-    for (long s = 0; s < n; ++s) remember_block(static_cast<std::size_t>(s));
+    parallel_for(static_cast<long>(blocks()), min_blocks(), [this](std::size_t s) { remember_block(s); });
 }
 
 void ParallelContactSolver::integrate() {
-    const long n = static_cast<long>(world_body_count());
-#pragma omp parallel for schedule(static) if (n >= min_bodies())
-    for (long i = 0; i < n; ++i) integrate_body(static_cast<std::size_t>(i));
+    parallel_for(static_cast<long>(world_body_count()), min_bodies(), [this](std::size_t i) { integrate_body(i); });
 }
 
 

@@ -89,7 +89,7 @@ void ContactSolver::cell_keys() {
 
 void ContactSolver::sort_keys() { std::sort(keys_.begin(), keys_.end()); }
 
-void ContactSolver::colour(const World& /*world*/, const ContactBuffer& contacts) {
+void ContactSolver::colour(const ContactBuffer& contacts) {
     const std::size_t n = contacts.size();
     keys_.resize(n);
     cell_keys();
@@ -370,7 +370,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     const std::size_t nb = world.body_count();
     bodies_.resize(nb);
     fc_.resize(nb);
-    colour(world, contacts);
+    colour(contacts);
     match_previous(contacts);
     blocks_.resize(contacts.size());
     prepare_bodies();

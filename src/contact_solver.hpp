@@ -93,7 +93,7 @@ protected:
     int iterations() const { return scene_.solver.iterations; }
 
 private:
-    void colour(const World& world, const ContactBuffer& contacts);
+    void colour(const ContactBuffer& contacts);
     void match_previous(const ContactBuffer& contacts);
     void commit(World& world) const;
 

@@ -14,7 +14,7 @@ Vec3 rotate(const dReal* R, const Vec3& v) {  // ODE's 3x4 row-major rotation
 
 }  // namespace
 
-MagnetField::MagnetField(const Scene& scene, const World& /*world*/) : model_(scene.magnets) {
+MagnetField::MagnetField(const Scene& scene) : model_(scene.magnets) {
     double rmax = 0;
     for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
         if (!scene.bodies[i].magnets) continue;
@@ -121,13 +121,6 @@ void set_magnet_gather(MagnetGatherFn fn) { g_gather = fn ? fn : &gather_serial;
 void gather_magnets(const MagnetField& field, std::vector<BodyWrench>& out) {
     out.resize(field.members().size());
     g_gather(field, out);
-}
-
-void MagnetField::apply_serial(World& world) {
-    prepare(world);
-    std::vector<BodyWrench> wrenches(members_.size());
-    gather_serial(*this, wrenches);
-    apply(world, wrenches);
 }
 
 }  // namespace parode

@@ -22,14 +22,12 @@ struct BodyWrench {
 
 class MagnetField {
 public:
-    MagnetField(const Scene& scene, const World& world);
+    explicit MagnetField(const Scene& scene);
     // Pole positions and the cell list, from the current body states (serial).
     void prepare(const World& world);
     // Force and torque on magnetised body number k (index into members()).
     BodyWrench gather(std::size_t k) const;
     const std::vector<std::uint32_t>& members() const { return members_; }
-    // Serial reference: prepare, gather every member, apply in id order.
-    void apply_serial(World& world);
     // Apply precomputed wrenches (one per member) in id order.
     void apply(World& world, const std::vector<BodyWrench>& wrenches) const;
 

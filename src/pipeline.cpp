@@ -4,7 +4,6 @@
 #include <chrono>
 
 #include "controller.hpp"
-#include "hash.hpp"
 
 namespace parode {
 
@@ -21,7 +20,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) {
-        magnets_ = std::make_unique<MagnetField>(scene, *world_);
+        magnets_ = std::make_unique<MagnetField>(scene);
         wrenches_.resize(magnets_->members().size());
     }
     if (stage(Stage::Output).enabled) {

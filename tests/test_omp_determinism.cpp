@@ -30,7 +30,7 @@ INSTANTIATE_TEST_SUITE_P(Classic, ThreadCounts, ::testing::Values("tennis", "mag
 TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
     Scene sc = test::repo_scene("jobs/scenes/magnetic-tennis.toml", {"catoms.count=343"});
     auto p = test::run(sc, 20, "ode-hash", 1);
-    MagnetField field(sc, p->world());
+    MagnetField field(sc);
     field.prepare(p->world());
     std::vector<BodyWrench> serial(field.members().size());
     for (std::size_t k = 0; k < serial.size(); ++k) serial[k] = field.gather(k);

@@ -114,7 +114,7 @@ TEST(Physics, MagnetForcesAreEqualAndOpposite) {
     sc.bodies[1].position[0] += 0.03;  // slightly apart: net attraction
     sc.bodies[1].position[1] += 0.01;  // and sheared
     World w(sc, SpaceKind::Simple);
-    MagnetField field(sc, w);
+    MagnetField field(sc);
     field.prepare(w);
     const BodyWrench a = field.gather(0), b = field.gather(1);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(a.force[c], -b.force[c], 1e-9);
