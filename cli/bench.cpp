@@ -17,9 +17,9 @@
 
 #include "cli_common.hpp"
 #include "grid_collide.hpp"
-#include "hash.hpp"
-#include "pipeline.hpp"
-#include "scene_file.hpp"
+#include "util/hash.hpp"
+#include "run/pipeline.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::cli {
 namespace {

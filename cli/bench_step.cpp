@@ -15,9 +15,9 @@
 #include <iostream>
 
 #include "cli_common.hpp"
-#include "pipeline.hpp"
+#include "run/pipeline.hpp"
 #include "register.hpp"
-#include "scene_file.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::cli {
 namespace {

@@ -6,10 +6,10 @@
 #include <fstream>
 #include <iostream>
 
-#include "collide.hpp"
-#include "error_metrics.hpp"
-#include "pipeline.hpp"
-#include "scene_file.hpp"
+#include "collide/collide.hpp"
+#include "io/error_metrics.hpp"
+#include "run/pipeline.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::cli {
 

@@ -9,7 +9,7 @@
 #include <functional>
 #include <string>
 
-#include "trajectory.hpp"
+#include "io/trajectory.hpp"
 
 namespace parode::cli {
 

@@ -7,8 +7,8 @@
 #include <iostream>
 
 #include "cli_common.hpp"
-#include "error_metrics.hpp"
-#include "report.hpp"
+#include "io/error_metrics.hpp"
+#include "io/report.hpp"
 
 namespace parode::cli {
 namespace {

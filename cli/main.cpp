@@ -13,11 +13,11 @@
 #include <iostream>
 
 #include "cli_common.hpp"
-#include "error_metrics.hpp"
-#include "pipeline.hpp"
+#include "io/error_metrics.hpp"
+#include "run/pipeline.hpp"
 #include "register.hpp"
-#include "report.hpp"
-#include "scene_file.hpp"
+#include "io/report.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::cli {
 namespace {

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <memory>
 
-#include "collide.hpp"
-#include "contacts.hpp"
+#include "collide/collide.hpp"
+#include "collide/contacts.hpp"
 
 namespace parode::omp {
 namespace {

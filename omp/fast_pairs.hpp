@@ -11,7 +11,7 @@
 
 #include <cstdint>
 
-#include "contacts.hpp"
+#include "collide/contacts.hpp"
 
 namespace parode::omp {
 

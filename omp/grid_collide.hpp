@@ -28,8 +28,8 @@
 #include <memory>
 #include <string>
 
-#include "collide.hpp"
-#include "contacts.hpp"
+#include "collide/collide.hpp"
+#include "collide/contacts.hpp"
 
 namespace parode::omp {
 

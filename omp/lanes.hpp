@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "contacts.hpp"
+#include "collide/contacts.hpp"
 #include "fast_pairs.hpp"
 
 namespace parode::omp {

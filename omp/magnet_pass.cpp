@@ -6,7 +6,7 @@
 // Trade-off: pole positions and the cell sort are still prepared serially.
 #include "magnet_pass.hpp"
 
-#include "magnets.hpp"
+#include "forces/magnets.hpp"
 #include "register.hpp"
 
 namespace parode::omp {

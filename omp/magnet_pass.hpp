@@ -2,7 +2,7 @@
 #pragma once
 #include <vector>
 
-#include "magnets.hpp"
+#include "forces/magnets.hpp"
 
 namespace parode::omp {
 void gather_magnets_parallel(const MagnetField& field, std::vector<BodyWrench>& out);

@@ -16,7 +16,7 @@
 #pragma once
 #include <ode/ode.h>
 
-#include "contacts.hpp"
+#include "collide/contacts.hpp"
 
 namespace parode {
 

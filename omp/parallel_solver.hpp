@@ -8,7 +8,7 @@
 // Trade-off: 8 barriers per iteration (160 a step at 20 iterations); worth it
 // above a few hundred contacts, below that "pgs" is as fast.
 #pragma once
-#include "contact_solver.hpp"
+#include "solve/contact_solver.hpp"
 
 namespace parode::omp {
 

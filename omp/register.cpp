@@ -8,11 +8,11 @@
 #include <omp.h>
 #endif
 
-#include "collide.hpp"
+#include "collide/collide.hpp"
 #include "grid_collide.hpp"
 #include "magnet_pass.hpp"
 #include "parallel_solver.hpp"
-#include "solver.hpp"
+#include "solve/solver.hpp"
 
 namespace parode::omp {
 

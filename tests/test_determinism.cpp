@@ -5,7 +5,7 @@
 // case under a second or two while the pile is already chaotic.
 #include <gtest/gtest.h>
 
-#include "hash.hpp"
+#include "util/hash.hpp"
 #include "test_support.hpp"
 
 using namespace parode;

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "error_metrics.hpp"
+#include "io/error_metrics.hpp"
 #include "test_support.hpp"
 
 using namespace parode;

@@ -7,7 +7,7 @@
 
 #include <cstring>
 
-#include "hash.hpp"
+#include "util/hash.hpp"
 #include "register.hpp"
 #include "test_support.hpp"
 

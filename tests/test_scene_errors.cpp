@@ -15,7 +15,7 @@
 #include <tuple>
 #include <vector>
 
-#include "scene_file.hpp"
+#include "scene/scene_file.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 
 #include <cmath>
 
-#include "hash.hpp"
+#include "util/hash.hpp"
 #include "register.hpp"
 #include "test_support.hpp"
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline.hpp"
-#include "scene_file.hpp"
+#include "run/pipeline.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::test {
 

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "collide.hpp"
+#include "collide/collide.hpp"
 #include "collide_bench.hpp"
 #include "random_scene.hpp"
 #include "register.hpp"

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "contacts.hpp"
+#include "collide/contacts.hpp"
 
 namespace parode::test {
 namespace {

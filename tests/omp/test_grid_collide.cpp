@@ -12,9 +12,9 @@
 #include <cstring>
 #include <vector>
 
-#include "collide.hpp"
+#include "collide/collide.hpp"
 #include "collide_bench.hpp"
-#include "contacts.hpp"
+#include "collide/contacts.hpp"
 #include "fast_pairs.hpp"
 #include "grid_collide.hpp"
 #include "parallel_collide.hpp"

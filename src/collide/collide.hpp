@@ -1,0 +1,55 @@
+// The collide stage's interface and the reference backends built on ODE's spaces.
+// A backend fills a ContactBuffer with every contact of a space, in canonical
+// order. The references (ode-hash, ode-sap, ode-simple) run ODE's own serial
+// dSpaceCollide with a near-callback that only collects contacts; parallel
+// backends live in omp/ and register themselves in the registry below.
+// Trade-off: the reference sorts contacts after collection, which costs a little
+// but makes every backend's output directly comparable, bit for bit.
+#pragma once
+#include <ode/ode.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "collide/contacts.hpp"
+#include "util/registry.hpp"
+
+namespace parode {
+
+// Which ODE space a backend wants World to build the scene into.
+enum class SpaceKind { Hash, SweepAndPrune, Simple };
+
+class CollideBackend {
+public:
+    virtual ~CollideBackend() = default;
+    virtual std::string name() const = 0;
+    virtual SpaceKind space_kind() const = 0;
+    // Every contact between geoms of `space` (recursing into nested spaces), in
+    // canonical order. `max_contacts` bounds the contacts of one pair.
+    virtual void collide(dSpaceID space, int max_contacts, ContactBuffer& out) = 0;
+    // Threads the backend may use (1 for serial backends).
+    virtual void set_threads(int /*threads*/) {}
+    // A hint: `space` holds exactly these geoms and no nested space (World's
+    // flat space), so a backend may read them without walking ODE's list.
+    // The pointer must stay valid while the backend collides that space.
+    virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
+};
+
+// Name -> factory. The reference backends are always present; omp/ adds more.
+class BackendRegistry : public Registry<CollideBackend> {
+public:
+    static BackendRegistry& instance();
+
+private:
+    BackendRegistry();
+};
+
+// Reference collision through ODE's own dSpaceCollide (exposed for tests).
+void collide_space_reference(dSpaceID space, int max_contacts, ContactBuffer& out);
+
+// One geom (or space) against a space, the serial reference of collide2.
+void collide2_reference(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out);
+
+}  // namespace parode

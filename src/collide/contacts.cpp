@@ -1,0 +1,52 @@
+// Contact buffer: pairwise dCollide in canonical argument order, merge and sort.
+// Trade-off: contacts are copied once into a flat vector so per-task buffers can
+// be merged and sorted without touching ODE again.
+#include "collide/contacts.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+#include "util/hash.hpp"
+
+namespace parode {
+
+int ContactBuffer::collide_pair(dGeomID a, dGeomID b, int max_contacts) {
+    std::uint32_t ia = geom_id(a), ib = geom_id(b);
+    if (ib < ia) {
+        std::swap(a, b);
+        std::swap(ia, ib);
+    }
+    constexpr int kMax = 64;
+    std::array<dContactGeom, kMax> tmp;
+    const int n = dCollide(a, b, std::min(max_contacts, kMax), tmp.data(), sizeof(dContactGeom));
+    for (int k = 0; k < n; ++k) {
+        items_.push_back(ContactRecord{ia, ib, static_cast<std::uint32_t>(k), tmp[k]});
+    }
+    return n;
+}
+
+void ContactBuffer::append(const ContactBuffer& other) {
+    items_.insert(items_.end(), other.items_.begin(), other.items_.end());
+}
+
+void ContactBuffer::sort_canonical() {
+    if (!std::is_sorted(items_.begin(), items_.end(), canonical_less)) {
+        std::stable_sort(items_.begin(), items_.end(), canonical_less);
+    }
+}
+
+std::uint64_t contact_digest(const ContactBuffer& buf) {
+    Fnv1a h;
+    for (const ContactRecord& c : buf.items()) {
+        h.add(c.lo);
+        h.add(c.hi);
+        h.add(c.index);
+        h.add_doubles(c.geom.pos, 3);
+        h.add_doubles(c.geom.normal, 3);
+        h.add_doubles(&c.geom.depth, 1);
+    }
+    return h.value();
+}
+
+}  // namespace parode

@@ -1,0 +1,126 @@
+// Magnet force model, serial reference (see magnets.hpp).
+#include "forces/magnets.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace parode {
+namespace {
+
+Vec3 rotate(const dReal* R, const Vec3& v) {  // ODE's 3x4 row-major rotation
+    return {R[0] * v[0] + R[1] * v[1] + R[2] * v[2], R[4] * v[0] + R[5] * v[1] + R[6] * v[2],
+            R[8] * v[0] + R[9] * v[1] + R[10] * v[2]};
+}
+
+}  // namespace
+
+MagnetField::MagnetField(const Scene& scene) : model_(scene.magnets) {
+    double rmax = 0;
+    for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+        if (!scene.bodies[i].magnets) continue;
+        members_.push_back(static_cast<std::uint32_t>(i));
+        radius_.push_back(scene.bodies[i].shape.radius);
+        rmax = std::max(rmax, scene.bodies[i].shape.radius);
+    }
+    cell_ = 2 * rmax + model_.cutoff;
+    reach2_ = cell_ * cell_;
+    centre_.resize(members_.size());
+    poles_.resize(members_.size() * model_.directions.size());
+}
+
+std::int64_t MagnetField::cell_key(const Vec3& c) const {
+    constexpr std::int64_t kBias = 1 << 20;
+    auto q = [this](double x) { return static_cast<std::int64_t>(std::floor(x / cell_)) + kBias; };
+    return (q(c[0]) << 42) | (q(c[1]) << 21) | q(c[2]);
+}
+
+void MagnetField::prepare(const World& world) {
+    const std::size_t np = model_.directions.size();
+    cells_.resize(members_.size());
+    for (std::size_t k = 0; k < members_.size(); ++k) {
+        dBodyID b = world.body(members_[k]);
+        const dReal* p = dBodyGetPosition(b);
+        const dReal* R = dBodyGetRotation(b);
+        centre_[k] = {p[0], p[1], p[2]};
+        for (std::size_t a = 0; a < np; ++a) {
+            const Vec3 d = rotate(R, model_.directions[a]);
+            poles_[k * np + a] = {p[0] + radius_[k] * d[0], p[1] + radius_[k] * d[1], p[2] + radius_[k] * d[2]};
+        }
+        cells_[k] = {cell_key(centre_[k]), static_cast<std::uint32_t>(k)};
+    }
+    std::sort(cells_.begin(), cells_.end());
+}
+
+void MagnetField::add_pair(std::size_t k, std::size_t m, BodyWrench& w) const {
+    const std::size_t np = model_.directions.size();
+    const double rc2 = model_.cutoff * model_.cutoff;
+    const double eps2 = model_.softening * model_.softening;
+    for (std::size_t a = 0; a < np; ++a) {
+        const Vec3& pa = poles_[k * np + a];
+        for (std::size_t b = 0; b < np; ++b) {
+            const Vec3& pb = poles_[m * np + b];
+            const Vec3 d{pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
+            const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if (r2 >= rc2) continue;
+            const double taper = (1 - r2 / rc2) * (1 - r2 / rc2);
+            const double s = r2 + eps2;
+            const double f = model_.strength * model_.charges[a] * model_.charges[b] * taper / (s * std::sqrt(s));
+            const Vec3 F{f * d[0], f * d[1], f * d[2]};
+            const Vec3 r{pa[0] - centre_[k][0], pa[1] - centre_[k][1], pa[2] - centre_[k][2]};
+            for (int c = 0; c < 3; ++c) w.force[c] += F[c];
+            w.torque[0] += r[1] * F[2] - r[2] * F[1];
+            w.torque[1] += r[2] * F[0] - r[0] * F[2];
+            w.torque[2] += r[0] * F[1] - r[1] * F[0];
+        }
+    }
+}
+
+BodyWrench MagnetField::gather(std::size_t k) const {
+    BodyWrench w;
+    const Vec3& c = centre_[k];
+    for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dz = -1; dz <= 1; ++dz) {
+                const Vec3 probe{c[0] + dx * cell_, c[1] + dy * cell_, c[2] + dz * cell_};
+                const std::int64_t key = cell_key(probe);
+                auto it = std::lower_bound(cells_.begin(), cells_.end(), std::make_pair(key, std::uint32_t{0}));
+                for (; it != cells_.end() && it->first == key; ++it) {
+                    const std::size_t m = it->second;
+                    if (m == k) continue;
+                    const Vec3& o = centre_[m];
+                    const double d2 = (c[0] - o[0]) * (c[0] - o[0]) + (c[1] - o[1]) * (c[1] - o[1]) + (c[2] - o[2]) * (c[2] - o[2]);
+                    if (d2 < reach2_) add_pair(k, m, w);
+                }
+            }
+        }
+    }
+    return w;
+}
+
+void MagnetField::apply(World& world, const std::vector<BodyWrench>& wrenches) const {
+    for (std::size_t k = 0; k < members_.size(); ++k) {
+        dBodyID b = world.body(members_[k]);
+        const BodyWrench& w = wrenches[k];
+        dBodyAddForce(b, w.force[0], w.force[1], w.force[2]);
+        dBodyAddTorque(b, w.torque[0], w.torque[1], w.torque[2]);
+    }
+}
+
+namespace {
+
+void gather_serial(const MagnetField& field, std::vector<BodyWrench>& out) {
+    for (std::size_t k = 0; k < field.members().size(); ++k) out[k] = field.gather(k);
+}
+
+MagnetGatherFn g_gather = &gather_serial;
+
+}  // namespace
+
+void set_magnet_gather(MagnetGatherFn fn) { g_gather = fn ? fn : &gather_serial; }
+
+void gather_magnets(const MagnetField& field, std::vector<BodyWrench>& out) {
+    out.resize(field.members().size());
+    g_gather(field, out);
+}
+
+}  // namespace parode

@@ -1,0 +1,157 @@
+// Run report (see report.hpp).
+#include "io/report.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+
+#include "util/hash.hpp"
+
+#ifndef PARODE_ODE_VERSION
+#define PARODE_ODE_VERSION "unknown"
+#endif
+#ifndef PARODE_CXX_FLAGS
+#define PARODE_CXX_FLAGS ""
+#endif
+#ifndef PARODE_BUILD_TYPE
+#define PARODE_BUILD_TYPE ""
+#endif
+
+namespace parode {
+
+nlohmann::json build_info() {
+    nlohmann::json b;
+#if defined(__clang__)
+    b["compiler"] = "clang " __clang_version__;
+#elif defined(__GNUC__)
+    b["compiler"] = "gcc " __VERSION__;
+#else
+    b["compiler"] = "unknown";
+#endif
+    b["flags"] = std::string(PARODE_CXX_FLAGS);
+    b["build_type"] = std::string(PARODE_BUILD_TYPE);
+    b["ode_version"] = std::string(PARODE_ODE_VERSION);
+    b["precision"] = dCheckConfiguration("ODE_double_precision") ? "double" : "single";
+    b["ode_configuration"] = std::string(dGetConfiguration());
+    return b;
+}
+
+nlohmann::json solver_json(const SolverSpec& s) {
+    return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
+            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}};
+}
+
+namespace {
+
+nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {
+    nlohmann::json j;
+    j["max_penetration"] = t.max_penetration;
+    j["mean_penetration"] = t.mean_penetration();
+    j["final_max_penetration"] = d.max_penetration;
+    j["nan_count"] = d.nan_count;
+    j["energy"] = {{"kinetic", d.kinetic}, {"potential", d.potential}, {"total", d.energy()}};
+    j["momentum"] = {{"linear", d.momentum}, {"angular", d.angular_momentum}};
+    j["com_height"] = d.com_height;
+    j["disabled_bodies"] = d.disabled;
+    j["final_contacts"] = d.contacts;
+    return j;
+}
+
+}  // namespace
+
+nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo& info) {
+    nlohmann::json r;
+    const int steps = p.steps_done();
+    r["scene"] = scene.name;
+    r["scene_file"] = info.scene_path;
+    r["seed"] = scene.seed;
+    r["bodies"] = p.world().body_count();
+    r["catoms"] = scene.catom_count();
+    r["steps"] = steps;
+    r["dt"] = scene.dt;
+    r["threads"] = info.threads;
+    r["ranks"] = info.ranks;
+    r["wall_s"] = info.wall_s;
+    r["ms_per_step"] = steps ? 1000.0 * info.wall_s / steps : 0.0;
+    r["backends"] = {{"collide", p.backend().name()},
+                     {"solve", p.solver().name()}};
+    r["solver"] = solver_json(scene.solver);
+    nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object();
+    for (int s = 0; s < kStageCount; ++s) {
+        const StageState& st = p.stage(static_cast<Stage>(s));
+        const char* name = stage_name(static_cast<Stage>(s));
+        stages[name] = st.seconds;
+        ran[name] = {{"ran", st.enabled}, {"why", st.reason}};
+    }
+    r["stages"] = stages;
+    r["stages_run"] = ran;
+    r["contacts_per_step"] = steps ? static_cast<double>(p.totals().contacts) / steps : 0.0;
+    r["state_hash"] = hex64(p.last().state_hash);
+    r["diagnostics"] = diagnostics_json(p.last(), p.totals());
+    r["guard"] = p.guard().describe();
+    const nlohmann::json checks = p.checks_result();
+    if (!checks.is_null()) r["checks"] = checks;
+    r["build"] = build_info();
+    return r;
+}
+
+void print_summary(std::ostream& os, const nlohmann::json& r) {
+    const double wall = r["wall_s"].get<double>();
+    os << "parode run: " << r["scene"].get<std::string>() << " (" << r["bodies"] << " bodies, " << r["steps"]
+       << " steps of " << r["dt"] << " s, " << r["threads"] << " thread(s), collide "
+       << r["backends"]["collide"].get<std::string>() << ")\n";
+    os << std::fixed << std::setprecision(3);
+    os << "  stage      ran   seconds   share  why\n";
+    for (int k = 0; k < kStageCount; ++k) {
+        const std::string name = stage_name(static_cast<Stage>(k));
+        const double s = r["stages"][name].get<double>();
+        const auto& info = r["stages_run"][name];
+        os << "  " << std::left << std::setw(9) << name << std::right << std::setw(4)
+           << (info["ran"].get<bool>() ? "yes" : "no") << std::setw(10) << s << std::setw(7) << std::setprecision(1)
+           << (wall > 0 ? 100.0 * s / wall : 0.0) << "%  " << std::setprecision(3) << info["why"].get<std::string>()
+           << "\n";
+    }
+    const auto& d = r["diagnostics"];
+    os << "  wall " << wall << " s, " << r["ms_per_step"].get<double>() << " ms/step, "
+       << std::setprecision(1) << r["contacts_per_step"].get<double>() << " contacts/step\n";
+    os << std::setprecision(6) << "  energy " << d["energy"]["total"].get<double>() << " J (kinetic "
+       << d["energy"]["kinetic"].get<double>() << "), centre of mass height " << d["com_height"].get<double>()
+       << " m\n";
+    os << "  penetration max " << d["max_penetration"].get<double>() << " m, mean "
+       << d["mean_penetration"].get<double>() << " m, NaN bodies " << d["nan_count"] << "\n";
+    os << "  state hash " << r["state_hash"].get<std::string>() << "\n";
+    os.unsetf(std::ios::floatfield);
+    if (!r.contains("checks")) return;
+    os << "  checks " << (r["checks"]["passed"].get<bool>() ? "passed" : "FAILED") << ":";
+    for (const auto& i : r["checks"]["items"]) {
+        os << " " << i["name"].get<std::string>() << " = " << i["value"].get<double>() << " ("
+           << (i["passed"].get<bool>() ? "ok" : "fail") << ", bound " << i["bound"].get<double>() << ");";
+    }
+    os << "\n";
+}
+
+void print_error_summary(std::ostream& os, const nlohmann::json& e) {
+    const auto& ref = e["reference"];
+    os << "  error against " << ref.value("scene", std::string("?")) << " (dt " << ref.value("dt", 0.0) << ", "
+       << ref["solver"].value("stepper", std::string("?")) << ", " << ref["solver"].value("iterations", 0)
+       << " iterations), " << e["matched_frames"] << " matched frames\n";
+    for (const auto& h : e["trajectory"]) {
+        os << "    after " << h["step"] << " steps: position RMS " << h["rms"].get<double>() << " m, max "
+           << h["max"].get<double>() << " m\n";
+    }
+    const auto& o = e["observables"];
+    os << "    at t = " << o["time"].get<double>() << " s: com height " << o["com_height"]["diff"].get<double>()
+       << " m off, spread " << o["spread"]["diff"].get<double>() << " m off, escaped "
+       << o["escaped"]["run"].get<double>() << " vs " << o["escaped"]["reference"].get<double>() << ", shape error "
+       << o["shape_error"].get<double>() << " m; energy drift " << e["energy"]["drift"].get<double>() << " J (reference "
+       << e["energy"]["reference_drift"].get<double>() << " J)\n";
+}
+
+void write_report(const std::string& path, const nlohmann::json& report) {
+    std::ofstream out(path);
+    if (!out) throw std::runtime_error(path + ": cannot open report file for writing");
+    out << report.dump(2) << '\n';
+    if (!out) throw std::runtime_error(path + ": error while writing the report");
+}
+
+}  // namespace parode

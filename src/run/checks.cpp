@@ -1,0 +1,103 @@
+// Pass criteria (see checks.hpp).
+#include "run/checks.hpp"
+
+#include <cmath>
+
+#include "io/error_metrics.hpp"
+
+namespace parode {
+namespace {
+
+nlohmann::json item(const std::string& name, double value, double bound, bool passed) {
+    return {{"name", name}, {"value", value}, {"bound", bound}, {"passed", passed}};
+}
+
+double max_displacement(const Trajectory& start, const Frame& now) {
+    const std::vector<char> sel = selection(start);
+    double out = 0;
+    for (std::size_t i = 0; i < sel.size(); ++i) {
+        if (!sel[i]) continue;
+        const Vec3 a = start.frames.front().position(i), b = now.position(i);
+        out = std::max(out, std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                                      (a[2] - b[2]) * (a[2] - b[2])));
+    }
+    return out;
+}
+
+double max_speed(const World& world) {
+    double out = 0;
+    for (dBodyID b : world.bodies()) {
+        const dReal* v = dBodyGetLinearVel(b);
+        out = std::max(out, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+    }
+    return out;
+}
+
+void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& extremes, nlohmann::json& items) {
+    static const char* axes = "xyz";
+    for (std::size_t k = 0; k < sc.checks.positions.size(); ++k) {
+        const PositionCheck& c = sc.checks.positions[k];
+        const double x = now.position(static_cast<std::size_t>(c.body))[c.axis];
+        const double lo = c.always ? std::min(x, extremes[k][0]) : x, hi = c.always ? std::max(x, extremes[k][1]) : x;
+        const std::string body = sc.bodies[c.body].name.empty() ? std::to_string(c.body) : sc.bodies[c.body].name;
+        const std::string name = "position " + body + "." + axes[c.axis] + (c.always ? " always" : "");
+        if (c.min > -1e300) items.push_back(item(name + " >= min", lo, c.min, lo >= c.min));
+        if (c.max < 1e300) items.push_back(item(name + " <= max", hi, c.max, hi <= c.max));
+    }
+}
+
+}  // namespace
+
+Checker::Checker(const World& world, const Diagnostics& initial)
+    : scene_(world.scene()), start_(make_trajectory(world.scene())), initial_energy_(initial.energy()) {
+    start_.frames.push_back(capture_frame(world, initial, 0, 0.0));
+    for (const PositionCheck& c : scene_.checks.positions) {
+        const double x = start_.frames.front().position(static_cast<std::size_t>(c.body))[c.axis];
+        extremes_.push_back({x, x, 0});
+    }
+}
+
+void Checker::observe(const World& world, const Diagnostics& d) {
+    max_penetration_ = std::max(max_penetration_, d.max_penetration);
+    max_energy_gain_ = std::max(max_energy_gain_, d.energy() - initial_energy_);
+    for (std::size_t k = 0; k < extremes_.size(); ++k) {
+        const PositionCheck& c = scene_.checks.positions[k];
+        const double x = dBodyGetPosition(world.body(static_cast<std::size_t>(c.body)))[c.axis];
+        extremes_[k][0] = std::min(extremes_[k][0], x);
+        extremes_[k][1] = std::max(extremes_[k][1], x);
+    }
+}
+
+nlohmann::json Checker::result(const World& world, const Diagnostics& last) const {
+    const CheckSpec& c = scene_.checks;
+    const Frame now = capture_frame(world, last, 0, 0.0);
+    nlohmann::json items = nlohmann::json::array();
+    if (c.max_penetration) items.push_back(item("max_penetration", max_penetration_, *c.max_penetration, max_penetration_ <= *c.max_penetration));
+    if (c.max_final_penetration) {
+        const double d = last.max_penetration;
+        items.push_back(item("max_final_penetration", d, *c.max_final_penetration, d <= *c.max_final_penetration));
+    }
+    if (c.max_energy_gain) items.push_back(item("max_energy_gain", max_energy_gain_, *c.max_energy_gain, max_energy_gain_ <= *c.max_energy_gain));
+    if (c.max_displacement) {
+        const double d = max_displacement(start_, now);
+        items.push_back(item("max_displacement", d, *c.max_displacement, d <= *c.max_displacement));
+    }
+    if (c.max_final_speed) {
+        const double v = max_speed(world);
+        items.push_back(item("max_final_speed", v, *c.max_final_speed, v <= *c.max_final_speed));
+    }
+    if (c.min_disabled) {
+        const double f = static_cast<double>(last.disabled) / static_cast<double>(world.body_count());
+        items.push_back(item("min_disabled", f, *c.min_disabled, f >= *c.min_disabled));
+    }
+    if (c.max_escaped) {
+        const double n = observables(start_, now).escaped;
+        items.push_back(item("max_escaped", n, static_cast<double>(*c.max_escaped), n <= static_cast<double>(*c.max_escaped)));
+    }
+    position_items(scene_, now, extremes_, items);
+    bool passed = true;
+    for (const auto& i : items) passed = passed && i["passed"].get<bool>();
+    return {{"passed", passed}, {"items", items}};
+}
+
+}  // namespace parode

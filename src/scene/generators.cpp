@@ -1,0 +1,123 @@
+// Catom prism and magnet layout generators (see generators.hpp).
+#include "scene/generators.hpp"
+
+#include <cmath>
+
+namespace parode {
+
+void prism_dims(long count, long dims[3]) {
+    long side = static_cast<long>(std::ceil(std::cbrt(static_cast<double>(count)) - 1e-9));
+    side = std::max(side, 1L);
+    dims[0] = side;
+    dims[1] = side;
+    dims[2] = (count + side * side - 1) / (side * side);
+}
+
+namespace {
+
+int catom_material(const Node& t, const Scene& sc) {
+    if (!t.has("material")) return 0;
+    const std::string m = t.string("material", "");
+    std::string list;
+    for (std::size_t i = 0; i < sc.materials.size(); ++i) {
+        if (sc.materials[i].name == m) return static_cast<int>(i);
+        list += (list.empty() ? "" : ", ") + sc.materials[i].name;
+    }
+    t.fail("material", "the name of a material (" + list + ")");
+}
+
+}  // namespace
+
+void read_catoms(const Node& root, Scene& sc) {
+    if (!root.has("catoms")) return;
+    const Node t = root.at("catoms");
+    t.expect_keys({"count", "radius", "mass", "layout", "spacing", "jitter", "material", "base",
+                   "velocity"});
+    const long count = t.integer("count", 1000, 1, 100000000);
+    t.choice("layout", "prism", {"prism"});
+    BodySpec proto;
+    proto.catom = true;
+    proto.shape.kind = ShapeKind::Sphere;
+    proto.shape.radius = t.number("radius", 0.5, 1e-9);
+    proto.mass = t.number("mass", 1.0, 1e-12);
+    proto.material = catom_material(t, sc);
+    proto.velocity = t.vec3("velocity", proto.velocity);
+    const double r = proto.shape.radius;
+    const double spacing = t.number("spacing", 2 * r, 1e-9);
+    const double jitter = t.number("jitter", 0.01, 0.0, 1.0) * r;
+    const Vec3 base = t.vec3("base", Vec3{0, 0, 0});  // centre of the prism's bottom face
+    long d[3];
+    prism_dims(count, d);
+    SplitMix64 rng(sc.seed);
+    sc.bodies.reserve(sc.bodies.size() + static_cast<std::size_t>(count));
+    for (long n = 0; n < count; ++n) {
+        const long i = n % d[0], j = (n / d[0]) % d[1], k = n / (d[0] * d[1]);
+        BodySpec b = proto;
+        b.position = {base[0] + (i - 0.5 * (d[0] - 1)) * spacing, base[1] + (j - 0.5 * (d[1] - 1)) * spacing,
+                      base[2] + r + k * spacing};
+        for (double& c : b.position) c += (2 * rng.uniform() - 1) * jitter;
+        sc.bodies.push_back(b);
+    }
+}
+
+namespace {
+
+void layout_axes6(MagnetModel& m) {
+    m.directions = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    m.charges = {1, -1, 1, -1, 1, -1};  // facing poles of lattice neighbours attract
+}
+
+void layout_cube8(MagnetModel& m) {
+    const double s = 1 / std::sqrt(3.0);
+    m.directions.clear();
+    m.charges.clear();
+    for (int k = 0; k < 8; ++k) {
+        const double x = (k & 1) ? s : -s, y = (k & 2) ? s : -s, z = (k & 4) ? s : -s;
+        m.directions.push_back({x, y, z});
+        m.charges.push_back((((k & 1) + ((k >> 1) & 1) + ((k >> 2) & 1)) % 2) ? 1 : -1);
+    }
+}
+
+// "catoms are bodies 1 to 8": generated catoms are contiguous, after the [[bodies]].
+std::string catom_range(const Scene& sc) {
+    long first = -1, last = -1;
+    for (std::size_t i = 0; i < sc.bodies.size(); ++i) {
+        if (!sc.bodies[i].catom) continue;
+        if (first < 0) first = static_cast<long>(i);
+        last = static_cast<long>(i);
+    }
+    if (first < 0) return "this scene has no catoms";
+    return "catoms are bodies " + std::to_string(first) + " to " + std::to_string(last);
+}
+
+void read_magnets_off(const Node& off, Scene& sc) {
+    for (std::size_t i = 0; i < off.array_size(); ++i) {
+        const toml::value& v = off.value().as_array()[i];
+        const long n = v.is_integer() ? static_cast<long>(v.as_integer()) : -1;
+        if (n < 0 || n >= static_cast<long>(sc.bodies.size()) || !sc.bodies[n].catom) {
+            throw SceneError(where(v) + ": key '" + off.index(i).path() + "': expected the id of a catom body (" +
+                             catom_range(sc) + "), got " + describe(v));
+        }
+        sc.bodies[n].magnets = false;
+    }
+}
+
+}  // namespace
+
+void read_magnets(const Node& root, Scene& sc) {
+    if (!root.has("magnets")) return;
+    const Node t = root.at("magnets");
+    t.expect_keys({"enabled", "layout", "strength", "softening", "cutoff", "off"});
+    MagnetModel& m = sc.magnets;
+    m.enabled = t.boolean("enabled", true);
+    const std::string layout = t.choice("layout", "axes6", {"axes6", "cube8"});
+    if (layout == "axes6") layout_axes6(m);
+    else layout_cube8(m);
+    m.strength = t.number("strength", m.strength, 0.0);
+    m.softening = t.number("softening", m.softening, 1e-9);
+    m.cutoff = t.number("cutoff", m.cutoff, 1e-9);
+    for (auto& b : sc.bodies) b.magnets = b.catom && m.enabled;
+    if (t.has("off")) read_magnets_off(t.at("off"), sc);
+}
+
+}  // namespace parode

@@ -1,0 +1,296 @@
+// Scene file schema: each table of the TOML file has one reader function that
+// checks its keys and fills the Scene (see README "Scene file reference").
+// Trade-off: names (materials, bodies, joints) are resolved to indices once,
+// here, so later stages never look anything up by string.
+#include "scene/scene_file.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "scene/generators.hpp"
+#include "scene/scene_checks.hpp"
+
+namespace parode {
+namespace {
+
+Quat read_rotation(const Node& t) {
+    if (!t.has("rotation")) return Quat{1, 0, 0, 0};
+    const Node r = t.at("rotation");
+    r.expect_keys({"axis", "angle"});
+    Vec3 axis = r.vec3("axis", Vec3{0, 0, 1});
+    const double n = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    if (n == 0) r.fail("axis", "a non-zero vector");
+    const double angle = r.number_required("angle");
+    const double s = std::sin(angle / 2) / n;
+    return Quat{std::cos(angle / 2), axis[0] * s, axis[1] * s, axis[2] * s};
+}
+
+Shape read_shape(const Node& t) {
+    Shape s;
+    const std::string kind = t.choice("shape", "sphere", {"sphere", "box", "capsule", "cylinder"});
+    if (kind == "box") {
+        s.kind = ShapeKind::Box;
+        s.size = t.vec3("size", Vec3{1, 1, 1});
+        for (double x : s.size) if (!(x > 0)) t.fail("size", "three positive numbers");
+        return s;
+    }
+    s.kind = kind == "sphere" ? ShapeKind::Sphere : kind == "capsule" ? ShapeKind::Capsule : ShapeKind::Cylinder;
+    s.radius = t.number("radius", 0.5, 1e-9);
+    if (s.kind != ShapeKind::Sphere) s.length = t.number("length", 1.0, 1e-9);
+    return s;
+}
+
+int material_index(const Scene& sc, const Node& t, const std::string& key) {
+    const std::string name = t.string(key, sc.materials.front().name);
+    for (std::size_t i = 0; i < sc.materials.size(); ++i) {
+        if (sc.materials[i].name == name) return static_cast<int>(i);
+    }
+    std::string list;
+    for (const auto& m : sc.materials) list += (list.empty() ? "" : ", ") + m.name;
+    t.fail(key, "the name of a material (" + list + ")");
+}
+
+void read_scene_table(const Node& root, Scene& sc) {
+    const Node t = root.at("scene");
+    t.expect_keys({"name", "description", "seed", "steps", "dt", "gravity", "observe_every"});
+    sc.name = t.string("name", "");
+    if (sc.name.empty()) t.fail("name", "a non-empty string");
+    sc.seed = static_cast<std::uint64_t>(t.integer("seed", 1, 0, std::numeric_limits<long>::max()));
+    sc.steps = static_cast<int>(t.integer("steps", 1000, 0, 1000000000));
+    sc.dt = t.number("dt", 0.005, 1e-9, 1.0);
+    sc.gravity = t.vec3("gravity", Vec3{0, 0, -9.81});
+    sc.observe_every = static_cast<int>(t.integer("observe_every", 10, 1, 1000000000));
+}
+
+void read_solver(const Node& root, SolverSpec& s) {
+    if (!root.has("solver")) return;
+    const Node t = root.at("solver");
+    t.expect_keys({"stepper", "iterations", "sor_w", "erp", "cfm", "contact_surface_layer",
+                   "contact_max_correcting_vel", "max_contacts", "warm_start", "auto_disable"});
+    s.stepper = t.choice("stepper", "quick", {"quick", "world"}) == "quick" ? Stepper::Quick : Stepper::World;
+    s.iterations = static_cast<int>(t.integer("iterations", s.iterations, 1, 100000));
+    s.sor_w = t.number("sor_w", s.sor_w, 0.01, 2.0);
+    s.erp = t.number("erp", s.erp, 0.0, 1.0);
+    s.cfm = t.number("cfm", s.cfm, 0.0, 1.0);
+    s.contact_surface_layer = t.number("contact_surface_layer", s.contact_surface_layer, 0.0);
+    s.contact_max_correcting_vel = t.number("contact_max_correcting_vel", s.contact_max_correcting_vel, 0.0);
+    s.max_contacts = static_cast<int>(t.integer("max_contacts", s.max_contacts, 1, 64));
+    s.warm_start = t.boolean("warm_start", s.warm_start);
+    if (!t.has("auto_disable")) return;
+    const Node a = t.at("auto_disable");
+    a.expect_keys({"enabled", "linear", "angular", "steps"});
+    s.auto_disable = a.boolean("enabled", true);
+    s.auto_disable_linear = a.number("linear", s.auto_disable_linear, 0.0);
+    s.auto_disable_angular = a.number("angular", s.auto_disable_angular, 0.0);
+    s.auto_disable_steps = static_cast<int>(a.integer("steps", s.auto_disable_steps, 1, 1000000));
+}
+
+void read_materials(const Node& root, Scene& sc) {
+    if (!root.has("materials")) {
+        sc.materials.push_back(Material{"default"});
+        return;
+    }
+    const Node arr = root.at("materials");
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const Node t = arr.index(i);
+        t.expect_keys({"name", "mu", "bounce", "bounce_vel", "soft_erp", "soft_cfm", "slip"});
+        Material m;
+        m.name = t.string("name", "");
+        if (m.name.empty()) t.fail("name", "a non-empty string");
+        for (const auto& o : sc.materials) if (o.name == m.name) t.fail("name", "a name not used by another material");
+        m.mu = t.number("mu", m.mu, 0.0);
+        m.bounce = t.number("bounce", m.bounce, 0.0, 1.0);
+        m.bounce_vel = t.number("bounce_vel", m.bounce_vel, 0.0);
+        m.soft_erp = t.number("soft_erp", m.soft_erp, 0.0, 1.0);
+        m.soft_cfm = t.number("soft_cfm", m.soft_cfm, 0.0);
+        m.slip = t.number("slip", m.slip, 0.0);
+        sc.materials.push_back(m);
+    }
+    if (sc.materials.empty()) arr.fail_here("key 'materials': expected at least one material");
+}
+
+void read_bodies(const Node& root, Scene& sc) {
+    if (!root.has("bodies")) return;
+    const Node arr = root.at("bodies");
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const Node t = arr.index(i);
+        t.expect_keys({"name", "shape", "radius", "length", "size", "mass", "position", "rotation",
+                       "velocity", "angular_velocity", "material", "catom"});
+        BodySpec b;
+        b.name = t.string("name", "");
+        if (b.name.empty()) t.fail("name", "a non-empty string");
+        if (sc.find_body(b.name) >= 0) t.fail("name", "a name not used by another body");
+        b.shape = read_shape(t);
+        b.mass = t.number("mass", 1.0, 1e-12);
+        b.position = t.vec3("position", b.position);
+        b.orientation = read_rotation(t);
+        b.velocity = t.vec3("velocity", b.velocity);
+        b.angular_velocity = t.vec3("angular_velocity", b.angular_velocity);
+        b.material = material_index(sc, t, "material");
+        b.catom = t.boolean("catom", false);
+        if (b.catom && b.shape.kind != ShapeKind::Sphere) t.fail("catom", "false for a shape other than a sphere");
+        sc.bodies.push_back(b);
+    }
+}
+
+void read_statics(const Node& root, Scene& sc) {
+    if (!root.has("statics")) return;
+    const Node arr = root.at("statics");
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const Node t = arr.index(i);
+        t.expect_keys({"name", "shape", "radius", "length", "size", "position", "rotation", "material"});
+        StaticGeom g;
+        g.name = t.string("name", "static" + std::to_string(i));
+        g.shape = read_shape(t);
+        g.position = t.vec3("position", g.position);
+        g.orientation = read_rotation(t);
+        g.material = material_index(sc, t, "material");
+        sc.statics.push_back(g);
+    }
+}
+
+void read_planes(const Node& root, Scene& sc) {
+    if (!root.has("planes")) return;
+    const Node arr = root.at("planes");
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const Node t = arr.index(i);
+        t.expect_keys({"normal", "offset", "material"});
+        PlaneSpec p;
+        p.normal = t.vec3("normal", p.normal);
+        const double n = std::sqrt(p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2]);
+        if (n == 0) t.fail("normal", "a non-zero vector");
+        for (double& c : p.normal) c /= n;
+        p.offset = t.number("offset", 0.0);
+        p.material = material_index(sc, t, "material");
+        sc.planes.push_back(p);
+    }
+}
+
+int body_ref(const Scene& sc, const Node& arr, std::size_t i) {
+    const toml::value& v = arr.value().as_array().at(i);
+    if (v.is_string()) {
+        if (v.as_string().str == "world") return -1;
+        const int b = sc.find_body(v.as_string().str);
+        if (b >= 0) return b;
+    }
+    throw SceneError(where(v) + ": key '" + arr.path() + "': expected the name of a body or \"world\", got " + describe(v));
+}
+
+void read_joint_params(const Node& t, JointSpec& j) {
+    if (!t.has("params")) return;
+    const Node p = t.at("params");
+    p.require_table();
+    for (const auto& kv : p.value().as_table()) {
+        if (!joint_param_known(kv.first)) {
+            throw SceneError(where(kv.second) + ": unknown joint parameter '" + p.key_path(kv.first) +
+                             "' (expected one of: " + joint_param_names() + ")");
+        }
+        j.params.emplace_back(kv.first, p.number_required(kv.first));
+    }
+}
+
+void read_joints(const Node& root, Scene& sc) {
+    if (!root.has("joints")) return;
+    const Node arr = root.at("joints");
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const Node t = arr.index(i);
+        t.expect_keys({"name", "type", "bodies", "anchor", "axis1", "axis2", "params"});
+        JointSpec j;
+        j.name = t.string("name", "joint" + std::to_string(i));
+        const std::string type = t.choice("type", "hinge", {"hinge2", "hinge", "ball", "fixed"});
+        j.kind = type == "hinge2" ? JointKind::Hinge2 : type == "hinge" ? JointKind::Hinge
+               : type == "ball" ? JointKind::Ball : JointKind::Fixed;
+        const Node b = t.at("bodies");
+        if (b.array_size() != 2) t.fail("bodies", "an array of two body names");
+        j.body_a = body_ref(sc, b, 0);
+        j.body_b = body_ref(sc, b, 1);
+        if (j.body_a < 0 && j.body_b < 0) t.fail("bodies", "at least one body that is not \"world\"");
+        j.anchor = t.vec3("anchor", j.anchor);
+        j.axis1 = t.vec3("axis1", j.axis1);
+        j.axis2 = t.vec3("axis2", j.axis2);
+        read_joint_params(t, j);
+        sc.joints.push_back(j);
+    }
+}
+
+std::vector<int> joint_refs(const Scene& sc, const Node& t, const std::string& key) {
+    std::vector<int> out;
+    if (!t.has(key)) return out;
+    const Node arr = t.at(key);
+    for (std::size_t i = 0; i < arr.array_size(); ++i) {
+        const toml::value& v = arr.value().as_array().at(i);
+        const int j = v.is_string() ? sc.find_joint(v.as_string().str) : -1;
+        if (j < 0 || sc.joints[j].kind != JointKind::Hinge2) {
+            throw SceneError(where(v) + ": key '" + arr.path() + "': expected the name of a hinge2 joint, got " + describe(v));
+        }
+        out.push_back(j);
+    }
+    return out;
+}
+
+void read_controller(const Node& root, Scene& sc) {
+    if (!root.has("controller")) return;
+    const Node t = root.at("controller");
+    t.expect_keys({"type", "steer", "drive", "steer_amplitude", "period", "speed_min", "speed_max",
+                   "speed_period", "steer_gain", "steer_fmax", "drive_fmax"});
+    t.choice("type", "figure-eight", {"figure-eight"});
+    ControllerSpec& c = sc.controller;
+    c.enabled = true;
+    c.steer_joints = joint_refs(sc, t, "steer");
+    c.drive_joints = joint_refs(sc, t, "drive");
+    if (c.drive_joints.empty()) t.fail("drive", "at least one hinge2 joint name");
+    c.steer_amplitude = t.number("steer_amplitude", c.steer_amplitude, 0.0, 1.5);
+    c.period = t.number("period", c.period, 1e-6);
+    c.speed_min = t.number("speed_min", c.speed_min);
+    c.speed_max = t.number("speed_max", c.speed_max);
+    c.speed_period = t.number("speed_period", c.speed_period, 1e-6);
+    c.steer_gain = t.number("steer_gain", c.steer_gain, 0.0);
+    c.steer_fmax = t.number("steer_fmax", c.steer_fmax, 0.0);
+    c.drive_fmax = t.number("drive_fmax", c.drive_fmax, 0.0);
+}
+
+Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides) {
+    for (const auto& o : overrides) apply_override(data, o);
+    const Node root(data, "");
+    root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
+                      "catoms", "magnets", "controller", "guard", "checks"});
+    Scene sc;
+    sc.source = name;
+    read_scene_table(root, sc);
+    read_solver(root, sc.solver);
+    read_materials(root, sc);
+    read_planes(root, sc);
+    read_bodies(root, sc);
+    read_statics(root, sc);
+    read_joints(root, sc);
+    read_controller(root, sc);
+    read_catoms(root, sc);
+    read_magnets(root, sc);
+    if (sc.bodies.empty()) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
+    read_guard(root, sc.guard);
+    read_checks(root, sc);
+    return sc;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+    toml::value data = parse_toml_file(path);
+    return build_scene(data, path, overrides);
+}
+
+Scene load_scene_text(const std::string& text, const std::string& name,
+                      const std::vector<std::string>& overrides) {
+    std::istringstream in(text);
+    toml::value data;
+    try {
+        data = toml::parse(in, name);
+    } catch (const toml::syntax_error& e) {
+        const std::size_t line = e.location().line();
+        const std::string at = line == 0 ? name : name + ":" + std::to_string(line);
+        throw SceneError(at + ": TOML syntax error:\n" + std::string(e.what()));
+    }
+    return build_scene(data, name, overrides);
+}
+
+}  // namespace parode

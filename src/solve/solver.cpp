@@ -1,0 +1,97 @@
+// Solver backends and their registry (see solver.hpp).
+#include "solve/solver.hpp"
+
+#include <algorithm>
+
+#include "solve/contact_solver.hpp"
+
+namespace parode {
+namespace {
+
+class OdeSolver final : public SolverBackend {
+public:
+    OdeSolver(const Scene& scene, std::string why) : scene_(scene), why_(std::move(why)) {}
+    std::string name() const override {
+        return scene_.solver.stepper == Stepper::Quick ? "ode-quickstep" : "ode-worldstep";
+    }
+    std::string why() const override { return why_.empty() ? name() : name() + ": " + why_; }
+    bool uses_contact_joints() const override { return true; }
+    void step(World& world, const ContactBuffer& /*contacts*/) override {
+        if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
+        else dWorldStep(world.id(), scene_.dt);
+    }
+
+private:
+    const Scene& scene_;
+    std::string why_;
+};
+
+// ODE's stepper on ODE's built-in thread pool (dThreadingAllocateMultiThreaded-
+// Implementation), attached to the world at the first step, detached at the end.
+class OdeThreadedSolver final : public SolverBackend {
+public:
+    OdeThreadedSolver(const Scene& scene, int threads) : scene_(scene), threads_(std::max(1, threads)) {}
+    ~OdeThreadedSolver() override {
+        if (!impl_) return;
+        dThreadingImplementationShutdownProcessing(impl_);
+        dThreadingFreeThreadPool(pool_);
+        dWorldSetStepThreadingImplementation(world_, nullptr, nullptr);
+        dThreadingFreeImplementation(impl_);
+    }
+    std::string name() const override { return "ode-threaded"; }
+    std::string why() const override {
+        return "ODE's staged QuickStep on its own pool of " + std::to_string(threads_) +
+               " threads (not reproducible run to run with 2+ threads)";
+    }
+    bool uses_contact_joints() const override { return true; }
+    void step(World& world, const ContactBuffer& /*contacts*/) override {
+        if (!impl_) attach(world.id());
+        if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
+        else dWorldStep(world.id(), scene_.dt);
+    }
+
+private:
+    void attach(dWorldID w) {
+        world_ = w;
+        impl_ = dThreadingAllocateMultiThreadedImplementation();
+        pool_ = dThreadingAllocateThreadPool(static_cast<unsigned>(threads_), 0, dAllocateFlagBasicData, nullptr);
+        dThreadingThreadPoolServeMultiThreadedImplementation(pool_, impl_);
+        dWorldSetStepIslandsProcessingMaxThreadCount(w, static_cast<unsigned>(threads_));
+        dWorldSetStepThreadingImplementation(w, dThreadingImplementationGetFunctions(impl_), impl_);
+    }
+
+    const Scene& scene_;
+    int threads_;
+    dWorldID world_ = nullptr;
+    dThreadingImplementationID impl_ = nullptr;
+    dThreadingThreadPoolID pool_ = nullptr;
+};
+
+}  // namespace
+
+std::unique_ptr<SolverBackend> make_ode_solver(const Scene& scene, const std::string& why) {
+    return std::make_unique<OdeSolver>(scene, why);
+}
+
+std::string contact_solver_unsupported(const Scene& scene) {
+    if (!scene.joints.empty()) return "the scene has joints; the contact solver handles contact-only scenes";
+    if (scene.solver.auto_disable) return "auto-disable needs ODE's islands";
+    return "";
+}
+
+SolverRegistry::SolverRegistry() : Registry("solver") {
+    add("ode", [](const Scene& s, int) { return make_ode_solver(s, ""); });
+    add("ode-threaded", [](const Scene& s, int threads) { return std::make_unique<OdeThreadedSolver>(s, threads); });
+    add("pgs", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {
+        const std::string no = contact_solver_unsupported(s);
+        if (!no.empty()) return make_ode_solver(s, "pgs not used: " + no);
+        return std::make_unique<ContactSolver>(s);
+    });
+}
+
+SolverRegistry& SolverRegistry::instance() {
+    static SolverRegistry registry;
+    return registry;
+}
+
+}  // namespace parode

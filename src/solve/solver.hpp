@@ -1,0 +1,47 @@
+// The solve stage's interface: a SolverBackend advances the world by one step
+// given the step's contacts in canonical order. "ode" runs ODE's own stepper
+// (dWorldQuickStep or dWorldStep, from the scene) on contact joints made by the
+// joints stage; "ode-threaded" is the same on ODE's built-in thread pool
+// (islands and QuickStep stages in parallel; not reproducible run to run with
+// 2+ threads, which the report states); "pgs" (serial, src/) and "parallel"
+// (OpenMP, omp/) run the project's contact solver.
+// Trade-off: the project solver handles contact-only scenes (no scene joints,
+// no auto-disable); other scenes stay on ODE's stepper and the report says why.
+#pragma once
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "collide/contacts.hpp"
+#include "util/registry.hpp"
+#include "world/world.hpp"
+
+namespace parode {
+
+class SolverBackend {
+public:
+    virtual ~SolverBackend() = default;
+    virtual std::string name() const = 0;
+    // Why this backend runs (e.g. a fallback to ODE's stepper).
+    virtual std::string why() const { return name(); }
+    // True if the joints stage must turn contacts into ODE contact joints.
+    virtual bool uses_contact_joints() const = 0;
+    virtual void step(World& world, const ContactBuffer& contacts) = 0;
+};
+
+// Factories take the scene and the run's thread count.
+class SolverRegistry : public Registry<SolverBackend, const Scene&, int> {
+public:
+    static SolverRegistry& instance();
+
+private:
+    SolverRegistry();
+};
+
+// Empty when the project's contact solver can run `scene`, else the reason not.
+std::string contact_solver_unsupported(const Scene& scene);
+// ODE's stepper, with `why` recorded (used for fallbacks).
+std::unique_ptr<SolverBackend> make_ode_solver(const Scene& scene, const std::string& why);
+
+}  // namespace parode

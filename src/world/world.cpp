@@ -1,0 +1,230 @@
+// World construction from a Scene (see world.hpp).
+#include "world/world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+
+#include "scene/generators.hpp"
+
+namespace parode {
+namespace {
+
+constexpr unsigned long kDynamicCategory = 1;
+constexpr unsigned long kStaticCategory = 2;
+
+dSpaceID make_space(SpaceKind kind) {
+    switch (kind) {
+        case SpaceKind::Hash: return dHashSpaceCreate(nullptr);
+        case SpaceKind::SweepAndPrune: return dSweepAndPruneSpaceCreate(nullptr, dSAP_AXES_XYZ);
+        case SpaceKind::Simple: break;
+    }
+    return dSimpleSpaceCreate(nullptr);
+}
+
+void set_mass(dBodyID b, const BodySpec& s) {
+    dMass m;
+    const Shape& sh = s.shape;
+    switch (sh.kind) {
+        case ShapeKind::Sphere: dMassSetSphereTotal(&m, s.mass, sh.radius); break;
+        case ShapeKind::Box: dMassSetBoxTotal(&m, s.mass, sh.size[0], sh.size[1], sh.size[2]); break;
+        case ShapeKind::Capsule: dMassSetCapsuleTotal(&m, s.mass, 3, sh.radius, sh.length); break;
+        case ShapeKind::Cylinder: dMassSetCylinderTotal(&m, s.mass, 3, sh.radius, sh.length); break;
+    }
+    dBodySetMass(b, &m);
+}
+
+void set_pose(dGeomID g, const Vec3& p, const Quat& q) {
+    dGeomSetPosition(g, p[0], p[1], p[2]);
+    const dQuaternion dq{q[0], q[1], q[2], q[3]};
+    dGeomSetQuaternion(g, dq);
+}
+
+void set_joint_param(dJointID id, JointKind kind, int code, double value) {
+    switch (kind) {
+        case JointKind::Hinge2: dJointSetHinge2Param(id, code, value); break;
+        case JointKind::Hinge: dJointSetHingeParam(id, code, value); break;
+        case JointKind::Ball: dJointSetBallParam(id, code, value); break;
+        case JointKind::Fixed: dJointSetFixedParam(id, code, value); break;
+    }
+}
+
+}  // namespace
+
+void ensure_ode_initialised() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        if (!dInitODE2(0)) throw std::runtime_error("ODE initialisation failed");
+        dAllocateODEDataForThread(dAllocateMaskAll);
+    });
+}
+
+World::World(const Scene& scene, SpaceKind space_kind) : scene_(scene) {
+    ensure_ode_initialised();
+    dRandSetSeed(static_cast<unsigned long>(scene.seed));
+    world_ = dWorldCreate();
+    space_ = make_space(space_kind);
+    contacts_ = dJointGroupCreate(0);
+    const SolverSpec& s = scene.solver;
+    dWorldSetGravity(world_, scene.gravity[0], scene.gravity[1], scene.gravity[2]);
+    dWorldSetERP(world_, s.erp);
+    dWorldSetCFM(world_, s.cfm);
+    dWorldSetQuickStepNumIterations(world_, s.iterations);
+    dWorldSetQuickStepW(world_, s.sor_w);
+    dWorldSetContactSurfaceLayer(world_, s.contact_surface_layer);
+    dWorldSetContactMaxCorrectingVel(world_, s.contact_max_correcting_vel);
+    dWorldSetAutoDisableFlag(world_, s.auto_disable ? 1 : 0);
+    dWorldSetAutoDisableLinearThreshold(world_, s.auto_disable_linear);
+    dWorldSetAutoDisableAngularThreshold(world_, s.auto_disable_angular);
+    dWorldSetAutoDisableSteps(world_, s.auto_disable_steps);
+    dWorldSetAutoDisableTime(world_, 0);
+    build_bodies();
+    build_statics();
+    build_joints();
+    build_surfaces();
+}
+
+World::~World() {
+    dJointGroupDestroy(contacts_);
+    dSpaceDestroy(space_);  // destroys the geoms it holds
+    dWorldDestroy(world_);  // destroys bodies and joints
+}
+
+dGeomID World::make_geom(const Shape& s) {
+    switch (s.kind) {
+        case ShapeKind::Sphere: return dCreateSphere(space_, s.radius);
+        case ShapeKind::Box: return dCreateBox(space_, s.size[0], s.size[1], s.size[2]);
+        case ShapeKind::Capsule: return dCreateCapsule(space_, s.radius, s.length);
+        case ShapeKind::Cylinder: break;
+    }
+    return dCreateCylinder(space_, s.radius, s.length);
+}
+
+void World::build_bodies() {
+    bodies_.reserve(scene_.bodies.size());
+    geoms_.reserve(scene_.bodies.size() + scene_.statics.size() + scene_.planes.size());
+    for (const BodySpec& s : scene_.bodies) {
+        dBodyID b = dBodyCreate(world_);
+        set_mass(b, s);
+        dGeomID g = make_geom(s.shape);
+        dGeomSetBody(g, b);
+        set_pose(g, s.position, s.orientation);
+        dBodySetLinearVel(b, s.velocity[0], s.velocity[1], s.velocity[2]);
+        dBodySetAngularVel(b, s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
+        dBodySetData(b, reinterpret_cast<void*>(static_cast<std::uintptr_t>(bodies_.size())));
+        set_geom_id(g, static_cast<std::uint32_t>(geoms_.size()));
+        dGeomSetCategoryBits(g, kDynamicCategory);
+        dGeomSetCollideBits(g, ~0UL);
+        bodies_.push_back(b);
+        geoms_.push_back(g);
+        geom_material_.push_back(s.material);
+    }
+}
+
+void World::build_statics() {
+    auto add = [this](dGeomID g, int material) {
+        set_geom_id(g, static_cast<std::uint32_t>(geoms_.size()));
+        dGeomSetCategoryBits(g, kStaticCategory);
+        dGeomSetCollideBits(g, kDynamicCategory);
+        geoms_.push_back(g);
+        geom_material_.push_back(material);
+    };
+    for (const StaticGeom& s : scene_.statics) {
+        dGeomID g = make_geom(s.shape);
+        set_pose(g, s.position, s.orientation);
+        add(g, s.material);
+    }
+    for (const PlaneSpec& p : scene_.planes) {
+        add(dCreatePlane(space_, p.normal[0], p.normal[1], p.normal[2], p.offset), p.material);
+    }
+}
+
+void World::build_joints() {
+    for (const JointSpec& j : scene_.joints) {
+        dJointID id = nullptr;
+        switch (j.kind) {
+            case JointKind::Hinge2: id = dJointCreateHinge2(world_, nullptr); break;
+            case JointKind::Hinge: id = dJointCreateHinge(world_, nullptr); break;
+            case JointKind::Ball: id = dJointCreateBall(world_, nullptr); break;
+            case JointKind::Fixed: id = dJointCreateFixed(world_, nullptr); break;
+        }
+        dJointAttach(id, j.body_a >= 0 ? bodies_[j.body_a] : nullptr, j.body_b >= 0 ? bodies_[j.body_b] : nullptr);
+        const Vec3& a = j.anchor;
+        switch (j.kind) {
+            case JointKind::Hinge2: {
+                dJointSetHinge2Anchor(id, a[0], a[1], a[2]);
+                const dReal ax1[3] = {j.axis1[0], j.axis1[1], j.axis1[2]};
+                const dReal ax2[3] = {j.axis2[0], j.axis2[1], j.axis2[2]};
+                dJointSetHinge2Axes(id, ax1, ax2);
+                break;
+            }
+            case JointKind::Hinge:
+                dJointSetHingeAnchor(id, a[0], a[1], a[2]);
+                dJointSetHingeAxis(id, j.axis1[0], j.axis1[1], j.axis1[2]);
+                break;
+            case JointKind::Ball: dJointSetBallAnchor(id, a[0], a[1], a[2]); break;
+            case JointKind::Fixed: dJointSetFixed(id); break;
+        }
+        for (const auto& p : j.params) set_joint_param(id, j.kind, joint_param_code(p.first), p.second);
+        joints_.push_back(id);
+    }
+}
+
+void World::build_surfaces() {
+    const auto& mats = scene_.materials;
+    const std::size_t n = mats.size();
+    surfaces_.assign(n * n, dSurfaceParameters{});
+    for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t k = 0; k < n; ++k) {
+            const Material& a = mats[i];
+            const Material& b = mats[k];
+            dSurfaceParameters s{};
+            s.mode = dContactApprox1;
+            s.mu = std::sqrt(a.mu * b.mu);
+            if (a.bounce > 0 || b.bounce > 0) {
+                s.mode |= dContactBounce;
+                s.bounce = std::max(a.bounce, b.bounce);
+                s.bounce_vel = std::max(a.bounce_vel, b.bounce_vel);
+            }
+            if (a.soft_erp >= 0 || b.soft_erp >= 0) {
+                s.mode |= dContactSoftERP;
+                s.soft_erp = std::max(a.soft_erp, b.soft_erp);
+            }
+            if (a.soft_cfm >= 0 || b.soft_cfm >= 0) {
+                s.mode |= dContactSoftCFM;
+                s.soft_cfm = std::max(a.soft_cfm, b.soft_cfm);
+            }
+            if (a.slip > 0 || b.slip > 0) {
+                s.mode |= dContactSlip1 | dContactSlip2;
+                s.slip1 = s.slip2 = std::max(a.slip, b.slip);
+            }
+            surfaces_[i * n + k] = s;
+        }
+    }
+}
+
+const dSurfaceParameters& World::surface(int a, int b) const {
+    return surfaces_[static_cast<std::size_t>(a) * scene_.materials.size() + static_cast<std::size_t>(b)];
+}
+
+bool World::ignores(const ContactRecord& c) const {
+    if (joints_.empty()) return false;
+    dBodyID b1 = dGeomGetBody(c.geom.g1), b2 = dGeomGetBody(c.geom.g2);
+    return b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
+}
+
+void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
+    for (const ContactRecord& r : contacts) {
+        if (ignores(r)) continue;
+        dBodyID b1 = dGeomGetBody(r.geom.g1), b2 = dGeomGetBody(r.geom.g2);
+        dContact c;
+        c.surface = surface(geom_material_[r.lo], geom_material_[r.hi]);
+        c.geom = r.geom;
+        c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
+        dJointID j = dJointCreateContact(world_, contacts_, &c);
+        dJointAttach(j, b1, b2);
+    }
+}
+
+}  // namespace parode
