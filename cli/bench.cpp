@@ -99,8 +99,8 @@ bool sample(const World& driver, std::vector<Variant>& vars, int repeats, int ma
 
 void print_table(const Scene& scene, const std::vector<Variant>& vars, bool identical, std::ostream& os) {
     const double base = median(vars[0].seconds);
-    const double n = static_cast<double>(scene.bodies.size());
-    os << "collide benchmark: " << scene.name << ", " << scene.bodies.size() << " bodies, "
+    const double n = static_cast<double>(scene.body_count());
+    os << "collide benchmark: " << scene.name << ", " << scene.body_count() << " bodies, "
        << vars[0].seconds.size() << " timings per variant\n";
     os << "  variant            median ms   us/body   x vs " << vars[0].label << "   contacts  +RSS MB\n";
     for (const auto& v : vars) {
@@ -131,7 +131,7 @@ void write_csv(const std::string& path, const Scene& scene, const std::vector<Va
     const double base = median(vars[0].seconds);
     for (const auto& v : vars) {
         const double m = median(v.seconds);
-        out << scene.name << ',' << scene.bodies.size() << ',' << v.label << ',' << m << ',' << (m > 0 ? base / m : 0)
+        out << scene.name << ',' << scene.body_count() << ',' << v.label << ',' << m << ',' << (m > 0 ? base / m : 0)
             << ',' << v.contacts << ',' << v.rss_mb << '\n';
     }
 }

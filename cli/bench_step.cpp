@@ -73,7 +73,7 @@ void advance(StepVariant& v, int steps) {
 
 void print_step_table(const Scene& sc, int steps, std::vector<StepVariant>& vars, const Pipeline* ref, int error_at,
                       std::ostream& os) {
-    os << "step benchmark: " << sc.name << ", " << sc.bodies.size() << " bodies, " << steps << " steps, "
+    os << "step benchmark: " << sc.name << ", " << sc.body_count() << " bodies, " << steps << " steps, "
        << sc.solver.iterations << " iterations" << (ref ? ", reference: ode-hash/ode with more iterations" : "") << "\n";
     os << "  variant                 ms/step  collide    solve  x vs first   rms@" << error_at
        << "    |dcom|   max pen  mean pen\n";
@@ -124,7 +124,7 @@ int bench_step(const BenchArgs& a) {
         if (!out) throw std::runtime_error(a.csv + ": cannot open CSV file for writing");
         out << "scene,bodies,steps,variant,ms_per_step,collide_ms,solve_ms,speedup_vs_first,rms_at,error_at\n";
         for (const auto& v : vars) {
-            out << scene.name << ',' << scene.bodies.size() << ',' << steps << ',' << v.label << ',' << 1e3 * v.seconds / steps
+            out << scene.name << ',' << scene.body_count() << ',' << steps << ',' << v.label << ',' << 1e3 * v.seconds / steps
                 << ',' << 1e3 * v.p->stage(Stage::Collide).seconds / steps << ',' << 1e3 * v.p->stage(Stage::Solve).seconds / steps
                 << ',' << vars[0].seconds / v.seconds << ',' << v.rms_at << ',' << a.error_at << '\n';
         }

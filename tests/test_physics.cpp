@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "test_support.hpp"
 
@@ -83,21 +84,21 @@ TEST(Physics, RestingColumnStaysUp) {
     EXPECT_LT(p->last().kinetic, 1e-3);
 }
 
+// Two catoms: a at x = 0 (velocity va), b at x = 1 + gap (velocity vb), in
+// zero gravity, magnets on or off.
+Scene catom_pair(bool magnets, double va, double vb, double gap, double shear) {
+    std::ostringstream text;
+    text << "[scene]\nname = \"pair\"\ndt = 0.005\ngravity = [0.0, 0.0, 0.0]\n"
+         << "[[bodies]]\nname = \"a\"\ncatom = true\nvelocity = [" << va << ", 0.0, 0.0]\n"
+         << "[[bodies]]\nname = \"b\"\ncatom = true\nposition = [" << 1.0 + gap << ", " << shear
+         << ", 0.0]\nvelocity = [" << vb << ", 0.0, 0.0]\n"
+         << "[magnets]\nenabled = " << (magnets ? "true" : "false") << "\n";
+    return load_scene_text(text.str(), "pair");
+}
+
 // Two touching catoms pushed apart at 1 m/s each, in zero gravity.
 double pair_separation(bool magnets) {
-    std::string text = R"(
-[scene]
-name = "pair"
-dt = 0.005
-gravity = [0.0, 0.0, 0.0]
-[catoms]
-count = 2
-jitter = 0.0
-)";
-    if (magnets) text += "[magnets]\nenabled = true\n";
-    Scene sc = load_scene_text(text, "pair");
-    sc.bodies[0].velocity = {-1.0, 0, 0};
-    sc.bodies[1].velocity = {1.0, 0, 0};
+    const Scene sc = catom_pair(magnets, -1.0, 1.0, 0.0, 0.0);
     auto p = test::run(sc, 400);
     const Vec3 a = position(*p, 0), b = position(*p, 1);
     return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
@@ -109,10 +110,8 @@ TEST(Physics, MagnetisedCatomsStayTogetherPlainOnesDoNot) {
 }
 
 TEST(Physics, MagnetForcesAreEqualAndOpposite) {
-    Scene sc = load_scene_text("[scene]\nname = \"m\"\ngravity = [0.0, 0.0, 0.0]\n[catoms]\ncount = 2\njitter = 0.0\n"
-                               "[magnets]\nenabled = true\n", "m");
-    sc.bodies[1].position[0] += 0.03;  // slightly apart: net attraction
-    sc.bodies[1].position[1] += 0.01;  // and sheared
+    // slightly apart (net attraction) and sheared
+    const Scene sc = catom_pair(true, 0.0, 0.0, 0.03, 0.01);
     World w(sc, SpaceKind::Simple);
     MagnetField field(sc);
     field.prepare(w);

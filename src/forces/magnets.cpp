@@ -16,11 +16,12 @@ Vec3 rotate(const dReal* R, const Vec3& v) {  // ODE's 3x4 row-major rotation
 
 MagnetField::MagnetField(const Scene& scene) : model_(scene.magnets) {
     double rmax = 0;
-    for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-        if (!scene.bodies[i].magnets) continue;
+    for (std::size_t i = 0; i < scene.body_count(); ++i) {
+        if (!scene.body_magnets(i)) continue;
+        const double r = i < scene.bodies.size() ? scene.bodies[i].shape.radius : scene.catoms.proto.shape.radius;
         members_.push_back(static_cast<std::uint32_t>(i));
-        radius_.push_back(scene.bodies[i].shape.radius);
-        rmax = std::max(rmax, scene.bodies[i].shape.radius);
+        radius_.push_back(r);
+        rmax = std::max(rmax, r);
     }
     cell_ = 2 * rmax + model_.cutoff;
     reach2_ = cell_ * cell_;

@@ -43,12 +43,15 @@ std::string catom_mask_text(const std::vector<char>& mask) {
 
 Trajectory make_trajectory(const Scene& scene) {
     Trajectory t;
+    t.catom.reserve(scene.body_count());
     for (const BodySpec& b : scene.bodies) {
         t.catom.push_back(b.catom ? 1 : 0);
         if (b.catom) t.catom_radius = std::max(t.catom_radius, b.shape.radius);
     }
+    t.catom.resize(scene.body_count(), 1);
+    if (scene.catoms.count) t.catom_radius = std::max(t.catom_radius, scene.catoms.proto.shape.radius);
     t.meta = {{"scene", scene.name}, {"scene_file", scene.source}, {"seed", scene.seed}, {"dt", scene.dt},
-              {"observe_every", scene.observe_every}, {"bodies", scene.bodies.size()},
+              {"observe_every", scene.observe_every}, {"bodies", scene.body_count()},
               {"catoms", scene.catom_count()}, {"catom_radius", t.catom_radius}, {"solver", solver_json(scene.solver)}};
     return t;
 }

@@ -39,7 +39,8 @@ void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& 
         const PositionCheck& c = sc.checks.positions[k];
         const double x = now.position(static_cast<std::size_t>(c.body))[c.axis];
         const double lo = c.always ? std::min(x, extremes[k][0]) : x, hi = c.always ? std::max(x, extremes[k][1]) : x;
-        const std::string body = sc.bodies[c.body].name.empty() ? std::to_string(c.body) : sc.bodies[c.body].name;
+        const std::string given = sc.body(static_cast<std::size_t>(c.body)).name;
+        const std::string body = given.empty() ? std::to_string(c.body) : given;
         const std::string name = "position " + body + "." + axes[c.axis] + (c.always ? " always" : "");
         if (c.min > -1e300) items.push_back(item(name + " >= min", lo, c.min, lo >= c.min));
         if (c.max < 1e300) items.push_back(item(name + " <= max", hi, c.max, hi <= c.max));

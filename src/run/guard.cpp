@@ -27,7 +27,9 @@ double potential_headroom(const World& world) {
     double low = 1e300, mass = 0, mz = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) low = std::min(low, dBodyGetPosition(world.body(i))[2]);
     for (std::size_t i = 0; i < world.body_count(); ++i) {
-        const double m = world.scene().bodies[i].mass;
+        dMass dm;
+        dBodyGetMass(world.body(i), &dm);
+        const double m = dm.mass;
         mass += m;
         mz += m * (dBodyGetPosition(world.body(i))[2] - low);
     }
@@ -39,9 +41,7 @@ double magnet_binding(const Scene& sc) {
     if (!sc.any_magnets()) return 0;
     double per_catom = 0;
     for (double q : sc.magnets.charges) per_catom += 0.5 * sc.magnets.strength * q * q / sc.magnets.softening;
-    double n = 0;
-    for (const BodySpec& b : sc.bodies) n += b.magnets ? 1 : 0;
-    return n * per_catom;
+    return static_cast<double>(sc.magnet_count()) * per_catom;
 }
 
 double motor_power(const ControllerSpec& c) {

@@ -1,6 +1,7 @@
 // Catom prism and magnet layout generators (see generators.hpp).
 #include "scene/generators.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace parode {
@@ -43,21 +44,15 @@ void read_catoms(const Node& root, Scene& sc) {
     proto.material = catom_material(t, sc);
     proto.velocity = t.vec3("velocity", proto.velocity);
     const double r = proto.shape.radius;
-    const double spacing = t.number("spacing", 2 * r, 1e-9);
-    const double jitter = t.number("jitter", 0.01, 0.0, 1.0) * r;
-    const Vec3 base = t.vec3("base", Vec3{0, 0, 0});  // centre of the prism's bottom face
-    long d[3];
-    prism_dims(count, d);
-    SplitMix64 rng(sc.seed);
-    sc.bodies.reserve(sc.bodies.size() + static_cast<std::size_t>(count));
-    for (long n = 0; n < count; ++n) {
-        const long i = n % d[0], j = (n / d[0]) % d[1], k = n / (d[0] * d[1]);
-        BodySpec b = proto;
-        b.position = {base[0] + (i - 0.5 * (d[0] - 1)) * spacing, base[1] + (j - 0.5 * (d[1] - 1)) * spacing,
-                      base[2] + r + k * spacing};
-        for (double& c : b.position) c += (2 * rng.uniform() - 1) * jitter;
-        sc.bodies.push_back(b);
-    }
+    CatomBlock& c = sc.catoms;
+    c.first = sc.bodies.size();
+    c.count = static_cast<std::size_t>(count);
+    c.spacing = t.number("spacing", 2 * r, 1e-9);
+    c.jitter = t.number("jitter", 0.01, 0.0, 1.0) * r;
+    c.base = t.vec3("base", Vec3{0, 0, 0});  // centre of the prism's bottom face
+    prism_dims(count, c.dims);
+    c.seed = sc.seed;
+    c.proto = proto;
 }
 
 namespace {
@@ -86,6 +81,10 @@ std::string catom_range(const Scene& sc) {
         if (first < 0) first = static_cast<long>(i);
         last = static_cast<long>(i);
     }
+    if (sc.catoms.count > 0) {
+        if (first < 0) first = static_cast<long>(sc.catoms.first);
+        last = static_cast<long>(sc.catoms.first + sc.catoms.count - 1);
+    }
     if (first < 0) return "this scene has no catoms";
     return "catoms are bodies " + std::to_string(first) + " to " + std::to_string(last);
 }
@@ -94,12 +93,17 @@ void read_magnets_off(const Node& off, Scene& sc) {
     for (std::size_t i = 0; i < off.array_size(); ++i) {
         const toml::value& v = off.value().as_array()[i];
         const long n = v.is_integer() ? static_cast<long>(v.as_integer()) : -1;
-        if (n < 0 || n >= static_cast<long>(sc.bodies.size()) || !sc.bodies[n].catom) {
+        const bool listed = n >= 0 && n < static_cast<long>(sc.bodies.size()) && sc.bodies[n].catom;
+        const bool generated = n >= static_cast<long>(sc.catoms.first) && n < static_cast<long>(sc.body_count());
+        if (!listed && !generated) {
             throw SceneError(where(v) + ": key '" + off.index(i).path() + "': expected the id of a catom body (" +
                              catom_range(sc) + "), got " + describe(v));
         }
-        sc.bodies[n].magnets = false;
+        if (listed) sc.bodies[n].magnets = false;
+        else sc.magnets_off.push_back(static_cast<std::uint32_t>(n));
     }
+    std::sort(sc.magnets_off.begin(), sc.magnets_off.end());
+    sc.magnets_off.erase(std::unique(sc.magnets_off.begin(), sc.magnets_off.end()), sc.magnets_off.end());
 }
 
 }  // namespace
@@ -117,6 +121,7 @@ void read_magnets(const Node& root, Scene& sc) {
     m.softening = t.number("softening", m.softening, 1e-9);
     m.cutoff = t.number("cutoff", m.cutoff, 1e-9);
     for (auto& b : sc.bodies) b.magnets = b.catom && m.enabled;
+    sc.catoms.proto.magnets = m.enabled;
     if (t.has("off")) read_magnets_off(t.at("off"), sc);
 }
 

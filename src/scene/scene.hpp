@@ -148,6 +148,22 @@ struct CheckSpec {
     bool any() const;
 };
 
+// The catom ensemble ([catoms]): a prism of identical spheres that is never
+// stored body by body. Catom n (global id first + n) is generated on demand,
+// so a process builds only the ids it holds; its jitter comes from the n-th
+// draws of a counter-based generator, the same bits whichever ids are built.
+struct CatomBlock {
+    std::size_t first = 0;  // global id of catom 0 (the [[bodies]] come first)
+    std::size_t count = 0;
+    BodySpec proto;         // shape, mass, material, velocity, magnets
+    double spacing = 1.0;
+    double jitter = 0.0;    // m
+    Vec3 base{0, 0, 0};     // centre of the prism's bottom face
+    long dims[3] = {1, 1, 1};
+    std::uint64_t seed = 1;
+    Vec3 position(std::size_t n) const;
+};
+
 struct Scene {
     std::string name;
     std::string source;  // file it came from
@@ -158,7 +174,9 @@ struct Scene {
     int observe_every = 10;
     SolverSpec solver;
     std::vector<Material> materials;
-    std::vector<BodySpec> bodies;  // index = global body id (and geom id)
+    std::vector<BodySpec> bodies;  // the [[bodies]]: global ids 0 .. bodies.size() - 1
+    CatomBlock catoms;             // then the generated catoms
+    std::vector<std::uint32_t> magnets_off;  // generated catoms with magnets off, ascending
     std::vector<StaticGeom> statics;
     std::vector<PlaneSpec> planes;
     std::vector<JointSpec> joints;
@@ -167,7 +185,15 @@ struct Scene {
     GuardSpec guard;
     CheckSpec checks;
 
+    // Every body, [[bodies]] and generated catoms: global ids 0 .. body_count() - 1.
+    std::size_t body_count() const { return bodies.size() + catoms.count; }
+    // The spec of body `gid` (generated for a catom).
+    BodySpec body(std::size_t gid) const;
+    bool body_magnets(std::size_t gid) const;
+    // Largest bounding-sphere radius of any body.
+    double max_bounding_radius() const;
     std::size_t catom_count() const;
+    std::size_t magnet_count() const;  // bodies with magnets on
     bool any_magnets() const;
     int find_body(const std::string& name) const;
     int find_joint(const std::string& name) const;

@@ -14,10 +14,10 @@ int checked_body(const Scene& sc, const Node& t) {
     if (v.is_string()) {
         const int b = sc.find_body(v.as_string().str);
         if (b >= 0) return b;
-    } else if (v.is_integer() && v.as_integer() >= 0 && v.as_integer() < static_cast<long>(sc.bodies.size())) {
+    } else if (v.is_integer() && v.as_integer() >= 0 && v.as_integer() < static_cast<long>(sc.body_count())) {
         return static_cast<int>(v.as_integer());
     }
-    t.fail("body", "the name of a [[bodies]] entry or a body id in [0, " + std::to_string(sc.bodies.size() - 1) + "]");
+    t.fail("body", "the name of a [[bodies]] entry or a body id in [0, " + std::to_string(sc.body_count() - 1) + "]");
 }
 
 PositionCheck read_position_check(const Scene& sc, const Node& t) {

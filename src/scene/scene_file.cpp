@@ -266,7 +266,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     read_controller(root, sc);
     read_catoms(root, sc);
     read_magnets(root, sc);
-    if (sc.bodies.empty()) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
+    if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     read_guard(root, sc.guard);
     read_checks(root, sc);
     return sc;

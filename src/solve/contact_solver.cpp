@@ -57,14 +57,7 @@ void jacobian_row(const double* dir, const double* c1, const double* c2, double*
 }  // namespace
 
 ContactSolver::ContactSolver(const Scene& scene) : scene_(scene) {
-    double rmax = 0;
-    for (const BodySpec& b : scene.bodies) {
-        const Shape& sh = b.shape;
-        const double r = sh.kind == ShapeKind::Sphere ? sh.radius
-                       : sh.kind == ShapeKind::Box ? 0.5 * std::sqrt(sh.size[0] * sh.size[0] + sh.size[1] * sh.size[1] + sh.size[2] * sh.size[2])
-                                                   : sh.radius + 0.5 * sh.length;
-        rmax = std::max(rmax, r);
-    }
+    const double rmax = scene.max_bounding_radius();
     // A body's contacts are owned by cells within 2 r_max of it: with cells of
     // 4 r_max they span at most two cells per axis, of different parity.
     cell_size_ = 4 * rmax * (1 + 1e-9);

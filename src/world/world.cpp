@@ -102,9 +102,10 @@ dGeomID World::make_geom(const Shape& s) {
 }
 
 void World::build_bodies() {
-    bodies_.reserve(scene_.bodies.size());
-    geoms_.reserve(scene_.bodies.size() + scene_.statics.size() + scene_.planes.size());
-    for (const BodySpec& s : scene_.bodies) {
+    bodies_.reserve(scene_.body_count());
+    geoms_.reserve(scene_.body_count() + scene_.statics.size() + scene_.planes.size());
+    for (std::size_t gid = 0; gid < scene_.body_count(); ++gid) {
+        const BodySpec s = scene_.body(gid);
         dBodyID b = dBodyCreate(world_);
         set_mass(b, s);
         dGeomID g = make_geom(s.shape);
