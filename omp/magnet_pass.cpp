@@ -12,9 +12,10 @@
 namespace parode::omp {
 
 void gather_magnets_parallel(const MagnetField& field, std::vector<BodyWrench>& out) {
-    const long n = static_cast<long>(field.members().size());
+    const long n = static_cast<long>(field.targets().size());
+    const std::uint32_t* target = field.targets().data();
 #pragma omp parallel for schedule(dynamic, 128) if (n >= min_parallel(1024))
-    for (long k = 0; k < n; ++k) out[static_cast<std::size_t>(k)] = field.gather(static_cast<std::size_t>(k));
+    for (long j = 0; j < n; ++j) out[static_cast<std::size_t>(j)] = field.gather(target[j]);
 }
 
 }  // namespace parode::omp

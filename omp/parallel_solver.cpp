@@ -59,12 +59,18 @@ template <class F>
 void ParallelContactSolver::sweep_cells(int passes, F&& per_cell) {
     const int nc = colours();
     [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
+    const bool exchange = exchanging();
 #pragma omp parallel if (big)
     for (int it = 0; it < passes; ++it) {
         for (int c = 0; c < nc; ++c) {
             const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
 #pragma omp for schedule(static)
             for (long t = b; t < e; ++t) per_cell(static_cast<std::size_t>(t));
+            if (exchange) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
+#pragma omp master
+                exchange_after(c);
+#pragma omp barrier
+            }
         }
     }
 }

@@ -14,19 +14,14 @@ Vec3 rotate(const dReal* R, const Vec3& v) {  // ODE's 3x4 row-major rotation
 
 }  // namespace
 
-MagnetField::MagnetField(const Scene& scene) : model_(scene.magnets) {
+MagnetField::MagnetField(const Scene& scene) : scene_(scene), model_(scene.magnets) {
     double rmax = 0;
-    for (std::size_t i = 0; i < scene.body_count(); ++i) {
-        if (!scene.body_magnets(i)) continue;
-        const double r = i < scene.bodies.size() ? scene.bodies[i].shape.radius : scene.catoms.proto.shape.radius;
-        members_.push_back(static_cast<std::uint32_t>(i));
-        radius_.push_back(r);
-        rmax = std::max(rmax, r);
+    if (scene.catoms.count && scene.catoms.proto.magnets) rmax = scene.catoms.proto.shape.radius;
+    for (const BodySpec& b : scene.bodies) {
+        if (b.magnets) rmax = std::max(rmax, b.shape.radius);
     }
     cell_ = 2 * rmax + model_.cutoff;
     reach2_ = cell_ * cell_;
-    centre_.resize(members_.size());
-    poles_.resize(members_.size() * model_.directions.size());
 }
 
 std::int64_t MagnetField::cell_key(const Vec3& c) const {
@@ -35,9 +30,26 @@ std::int64_t MagnetField::cell_key(const Vec3& c) const {
     return (q(c[0]) << 42) | (q(c[1]) << 21) | q(c[2]);
 }
 
-void MagnetField::prepare(const World& world) {
-    const std::size_t np = model_.directions.size();
+void MagnetField::find_members(const World& world) {
+    members_.clear();
+    targets_.clear();
+    radius_.clear();
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        const std::uint32_t gid = world.gid(i);
+        if (!scene_.body_magnets(gid)) continue;
+        if (!world.ghost(i)) targets_.push_back(static_cast<std::uint32_t>(members_.size()));
+        members_.push_back(static_cast<std::uint32_t>(i));
+        radius_.push_back(gid < scene_.bodies.size() ? scene_.bodies[gid].shape.radius : scene_.catoms.proto.shape.radius);
+    }
+    centre_.resize(members_.size());
+    poles_.resize(members_.size() * model_.directions.size());
     cells_.resize(members_.size());
+    generation_ = world.generation();
+}
+
+void MagnetField::prepare(const World& world) {
+    if (world.generation() != generation_) find_members(world);
+    const std::size_t np = model_.directions.size();
     for (std::size_t k = 0; k < members_.size(); ++k) {
         dBodyID b = world.body(members_[k]);
         const dReal* p = dBodyGetPosition(b);
@@ -47,7 +59,7 @@ void MagnetField::prepare(const World& world) {
             const Vec3 d = rotate(R, model_.directions[a]);
             poles_[k * np + a] = {p[0] + radius_[k] * d[0], p[1] + radius_[k] * d[1], p[2] + radius_[k] * d[2]};
         }
-        cells_[k] = {cell_key(centre_[k]), static_cast<std::uint32_t>(k)};
+        cells_[k] = {cell_key(centre_[k]), world.gid(members_[k]), static_cast<std::uint32_t>(k)};
     }
     std::sort(cells_.begin(), cells_.end());
 }
@@ -84,9 +96,9 @@ BodyWrench MagnetField::gather(std::size_t k) const {
             for (int dz = -1; dz <= 1; ++dz) {
                 const Vec3 probe{c[0] + dx * cell_, c[1] + dy * cell_, c[2] + dz * cell_};
                 const std::int64_t key = cell_key(probe);
-                auto it = std::lower_bound(cells_.begin(), cells_.end(), std::make_pair(key, std::uint32_t{0}));
-                for (; it != cells_.end() && it->first == key; ++it) {
-                    const std::size_t m = it->second;
+                auto it = std::lower_bound(cells_.begin(), cells_.end(), CellEntry{key, 0, 0});
+                for (; it != cells_.end() && it->key == key; ++it) {
+                    const std::size_t m = it->member;
                     if (m == k) continue;
                     const Vec3& o = centre_[m];
                     const double d2 = (c[0] - o[0]) * (c[0] - o[0]) + (c[1] - o[1]) * (c[1] - o[1]) + (c[2] - o[2]) * (c[2] - o[2]);
@@ -99,9 +111,9 @@ BodyWrench MagnetField::gather(std::size_t k) const {
 }
 
 void MagnetField::apply(World& world, const std::vector<BodyWrench>& wrenches) const {
-    for (std::size_t k = 0; k < members_.size(); ++k) {
-        dBodyID b = world.body(members_[k]);
-        const BodyWrench& w = wrenches[k];
+    for (std::size_t j = 0; j < targets_.size(); ++j) {
+        dBodyID b = world.body(members_[targets_[j]]);
+        const BodyWrench& w = wrenches[j];
         dBodyAddForce(b, w.force[0], w.force[1], w.force[2]);
         dBodyAddTorque(b, w.torque[0], w.torque[1], w.torque[2]);
     }
@@ -110,7 +122,7 @@ void MagnetField::apply(World& world, const std::vector<BodyWrench>& wrenches) c
 namespace {
 
 void gather_serial(const MagnetField& field, std::vector<BodyWrench>& out) {
-    for (std::size_t k = 0; k < field.members().size(); ++k) out[k] = field.gather(k);
+    for (std::size_t j = 0; j < field.targets().size(); ++j) out[j] = field.gather(field.targets()[j]);
 }
 
 MagnetGatherFn g_gather = &gather_serial;
@@ -120,7 +132,7 @@ MagnetGatherFn g_gather = &gather_serial;
 void set_magnet_gather(MagnetGatherFn fn) { g_gather = fn ? fn : &gather_serial; }
 
 void gather_magnets(const MagnetField& field, std::vector<BodyWrench>& out) {
-    out.resize(field.members().size());
+    out.resize(field.targets().size());
     g_gather(field, out);
 }
 

@@ -3,8 +3,10 @@
 //     F = k q_i q_j (p_i - p_j) / (|d|^2 + eps^2)^(3/2) * (1 - |d|^2/cutoff^2)^2
 // (like charges repel), applied at the pole so it also makes torque.
 // Forces are *gathered per body*: each body sums the forces on its own poles from
-// its neighbours in a fixed order, so the sum does not depend on which thread
-// computes which body. Neighbours come from a sorted cell list of centres.
+// its neighbours in a fixed order (cell key, then global id), so the sum depends
+// neither on which thread computes which body nor on how bodies are stored or
+// spread over processes. Neighbours come from a sorted cell list of centres;
+// ghost bodies are neighbours, only owned bodies get a wrench.
 // Trade-off: every pair is evaluated twice (once per body) in exchange for no
 // write conflicts and thread-count-independent sums.
 #pragma once
@@ -23,29 +25,44 @@ struct BodyWrench {
 class MagnetField {
 public:
     explicit MagnetField(const Scene& scene);
-    // Pole positions and the cell list, from the current body states (serial).
+    // Members (after any change of the world's bodies), pole positions and
+    // the cell list, from the current body states (serial).
     void prepare(const World& world);
     // Force and torque on magnetised body number k (index into members()).
     BodyWrench gather(std::size_t k) const;
+    // Local indices of the bodies with magnets on, owned and ghosts.
     const std::vector<std::uint32_t>& members() const { return members_; }
-    // Apply precomputed wrenches (one per member) in id order.
+    // The members that get a wrench (the owned ones), as indices into members().
+    const std::vector<std::uint32_t>& targets() const { return targets_; }
+    // Apply precomputed wrenches (one per target), in target order.
     void apply(World& world, const std::vector<BodyWrench>& wrenches) const;
+    // Centre distance within which two magnetised bodies interact.
+    double reach() const { return cell_; }
 
 private:
+    struct CellEntry {
+        std::int64_t key;
+        std::uint32_t gid, member;
+        bool operator<(const CellEntry& o) const { return key != o.key ? key < o.key : gid < o.gid; }
+    };
     std::int64_t cell_key(const Vec3& c) const;
     void add_pair(std::size_t k, std::size_t m, BodyWrench& w) const;
+    void find_members(const World& world);
 
+    const Scene& scene_;
     const MagnetModel& model_;
-    std::vector<std::uint32_t> members_;  // body ids with magnets on, ascending
+    std::uint64_t generation_ = ~0ULL;    // of the world when members were listed
+    std::vector<std::uint32_t> members_;  // local indices of bodies with magnets on
+    std::vector<std::uint32_t> targets_;  // members that are owned
     std::vector<double> radius_;          // per member
     std::vector<Vec3> centre_;            // per member
     std::vector<Vec3> poles_;             // member-major, world frame
-    std::vector<std::pair<std::int64_t, std::uint32_t>> cells_;  // (cell key, member), sorted
+    std::vector<CellEntry> cells_;        // sorted by (cell key, gid)
     double cell_ = 1.0;
     double reach2_ = 1.0;  // max centre distance^2 for any pole pair to interact
 };
 
-// Gather the wrench of every member into `out` (sized to members()). The
+// Gather the wrench of every target into `out` (sized to targets()). The
 // default is a serial loop; omp/ installs a parallel one with identical results.
 using MagnetGatherFn = void (*)(const MagnetField& field, std::vector<BodyWrench>& out);
 void set_magnet_gather(MagnetGatherFn fn);

@@ -59,36 +59,54 @@ nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {
 
 }  // namespace
 
+namespace {
+
+// Collective: {min, avg, max} of a per-process value over the processes.
+nlohmann::json spread(const Domain& domain, double v) {
+    ExactSum total;
+    total.add(v);
+    domain.sum(&total, 1);
+    return {{"min", domain.min(v)}, {"avg", total.value() / domain.ranks()}, {"max", domain.max(v)}};
+}
+
+}  // namespace
+
 nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo& info) {
+    const Domain& domain = p.domain();
     nlohmann::json r;
     const int steps = p.steps_done();
+    const double wall = domain.max(info.wall_s);
     r["scene"] = scene.name;
     r["scene_file"] = info.scene_path;
     r["seed"] = scene.seed;
-    r["bodies"] = p.world().body_count();
+    r["bodies"] = p.world().global_body_count();
     r["catoms"] = scene.catom_count();
     r["steps"] = steps;
     r["dt"] = scene.dt;
     r["threads"] = info.threads;
-    r["ranks"] = info.ranks;
-    r["wall_s"] = info.wall_s;
-    r["ms_per_step"] = steps ? 1000.0 * info.wall_s / steps : 0.0;
+    r["ranks"] = domain.ranks();
+    r["wall_s"] = wall;
+    r["ms_per_step"] = steps ? 1000.0 * wall / steps : 0.0;
     r["backends"] = {{"collide", p.backend().name()},
                      {"solve", p.solver().name()}};
     r["solver"] = solver_json(scene.solver);
-    nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object();
+    nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object(), ranks = nlohmann::json::object();
     for (int s = 0; s < kStageCount; ++s) {
         const StageState& st = p.stage(static_cast<Stage>(s));
         const char* name = stage_name(static_cast<Stage>(s));
-        stages[name] = st.seconds;
+        ranks[name] = spread(domain, st.seconds);
+        stages[name] = ranks[name]["max"];
         ran[name] = {{"ran", st.enabled}, {"why", st.reason}};
     }
     r["stages"] = stages;
+    r["stage_ranks"] = ranks;
     r["stages_run"] = ran;
-    r["contacts_per_step"] = steps ? static_cast<double>(p.totals().contacts) / steps : 0.0;
+    const auto contacts = domain.sum(static_cast<std::int64_t>(p.totals().contacts));
+    r["contacts_per_step"] = steps ? static_cast<double>(contacts) / steps : 0.0;
     r["state_hash"] = hex64(p.last().state_hash);
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();
+    r["parallel"] = domain.report();
     const nlohmann::json checks = p.checks_result();
     if (!checks.is_null()) r["checks"] = checks;
     r["build"] = build_info();
@@ -98,7 +116,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
 void print_summary(std::ostream& os, const nlohmann::json& r) {
     const double wall = r["wall_s"].get<double>();
     os << "parode run: " << r["scene"].get<std::string>() << " (" << r["bodies"] << " bodies, " << r["steps"]
-       << " steps of " << r["dt"] << " s, " << r["threads"] << " thread(s), collide "
+       << " steps of " << r["dt"] << " s, " << r["ranks"] << " rank(s) x " << r["threads"] << " thread(s), collide "
        << r["backends"]["collide"].get<std::string>() << ")\n";
     os << std::fixed << std::setprecision(3);
     os << "  stage      ran   seconds   share  why\n";

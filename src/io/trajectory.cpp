@@ -4,6 +4,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "domain/gather.hpp"
 #include "io/report.hpp"
 
 namespace parode {
@@ -56,7 +57,7 @@ Trajectory make_trajectory(const Scene& scene) {
     return t;
 }
 
-Frame capture_frame(const World& world, const Diagnostics& d, long step, double time) {
+Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Domain& domain) {
     Frame f;
     f.step = step;
     f.time = time;
@@ -69,11 +70,10 @@ Frame capture_frame(const World& world, const Diagnostics& d, long step, double 
     f.mean_penetration = d.mean_penetration;
     f.contacts = static_cast<double>(d.contacts);
     f.disabled = static_cast<double>(d.disabled);
-    f.positions.resize(3 * world.body_count());
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
+    f.positions = gather_rows(domain, world, 3, [&world](std::size_t i, double* out) {
         const dReal* p = dBodyGetPosition(world.body(i));
-        for (int c = 0; c < 3; ++c) f.positions[3 * i + c] = p[c];
-    }
+        for (int c = 0; c < 3; ++c) out[c] = p[c];
+    });
     return f;
 }
 

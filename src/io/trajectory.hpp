@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "domain/domain.hpp"
 #include "run/diagnostics.hpp"
 #include "scene/scene.hpp"
 #include "world/world.hpp"
@@ -44,7 +45,9 @@ struct Trajectory {
 
 // An empty trajectory of a scene (metadata and catom mask).
 Trajectory make_trajectory(const Scene& scene);
-Frame capture_frame(const World& world, const Diagnostics& d, long step, double time);
+// Collective: the frame of the current state; positions (in gid order) only
+// on the root process, which is the one that writes trajectories.
+Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Domain& domain);
 
 // Both throw std::runtime_error naming the file.
 void write_trajectory(const std::string& path, const Trajectory& t);

@@ -1,8 +1,10 @@
 // Pass criteria (see checks.hpp).
 #include "run/checks.hpp"
 
+#include <algorithm>
 #include <cmath>
 
+#include "domain/gather.hpp"
 #include "io/error_metrics.hpp"
 
 namespace parode {
@@ -24,13 +26,23 @@ double max_displacement(const Trajectory& start, const Frame& now) {
     return out;
 }
 
-double max_speed(const World& world) {
+// Collective: the largest speed of any body.
+double max_speed(const World& world, const Domain& domain) {
     double out = 0;
-    for (dBodyID b : world.bodies()) {
-        const dReal* v = dBodyGetLinearVel(b);
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        const dReal* v = dBodyGetLinearVel(world.body(i));
         out = std::max(out, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
     }
-    return out;
+    return domain.max(out);
+}
+
+// Collective: positions in gid order on the root (of `only`, when given).
+std::vector<double> positions(const World& world, const Domain& domain, const std::vector<std::uint32_t>* only = nullptr) {
+    return gather_rows(domain, world, 3, [&world](std::size_t i, double* out) {
+        const dReal* x = dBodyGetPosition(world.body(i));
+        for (int c = 0; c < 3; ++c) out[c] = x[c];
+    }, only);
 }
 
 void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& extremes, nlohmann::json& items) {
@@ -49,29 +61,38 @@ void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& 
 
 }  // namespace
 
-Checker::Checker(const World& world, const Diagnostics& initial)
-    : scene_(world.scene()), start_(make_trajectory(world.scene())), initial_energy_(initial.energy()) {
-    start_.frames.push_back(capture_frame(world, initial, 0, 0.0));
+Checker::Checker(const World& world, const Diagnostics& initial, const Domain& domain)
+    : scene_(world.scene()), domain_(domain), start_(make_trajectory(world.scene())), initial_energy_(initial.energy()) {
+    Frame f = capture_frame(world, initial, 0, 0.0, domain);
     for (const PositionCheck& c : scene_.checks.positions) {
-        const double x = start_.frames.front().position(static_cast<std::size_t>(c.body))[c.axis];
+        checked_.push_back(static_cast<std::uint32_t>(c.body));
+        const double x = domain.root() ? f.position(static_cast<std::size_t>(c.body))[c.axis] : 0.0;
         extremes_.push_back({x, x, 0});
     }
+    std::sort(checked_.begin(), checked_.end());
+    checked_.erase(std::unique(checked_.begin(), checked_.end()), checked_.end());
+    start_.frames.push_back(std::move(f));
 }
 
 void Checker::observe(const World& world, const Diagnostics& d) {
     max_penetration_ = std::max(max_penetration_, d.max_penetration);
     max_energy_gain_ = std::max(max_energy_gain_, d.energy() - initial_energy_);
+    if (extremes_.empty()) return;
+    const std::vector<double> x = positions(world, domain_, &checked_);
+    if (!domain_.root()) return;
     for (std::size_t k = 0; k < extremes_.size(); ++k) {
         const PositionCheck& c = scene_.checks.positions[k];
-        const double x = dBodyGetPosition(world.body(static_cast<std::size_t>(c.body)))[c.axis];
-        extremes_[k][0] = std::min(extremes_[k][0], x);
-        extremes_[k][1] = std::max(extremes_[k][1], x);
+        const double v = x[3 * static_cast<std::size_t>(c.body) + static_cast<std::size_t>(c.axis)];
+        extremes_[k][0] = std::min(extremes_[k][0], v);
+        extremes_[k][1] = std::max(extremes_[k][1], v);
     }
 }
 
 nlohmann::json Checker::result(const World& world, const Diagnostics& last) const {
     const CheckSpec& c = scene_.checks;
-    const Frame now = capture_frame(world, last, 0, 0.0);
+    const Frame now = capture_frame(world, last, 0, 0.0, domain_);
+    const double vmax = max_speed(world, domain_);
+    if (!domain_.root()) return nlohmann::json::parse(from_root(domain_, ""));
     nlohmann::json items = nlohmann::json::array();
     if (c.max_penetration) items.push_back(item("max_penetration", max_penetration_, *c.max_penetration, max_penetration_ <= *c.max_penetration));
     if (c.max_final_penetration) {
@@ -84,11 +105,11 @@ nlohmann::json Checker::result(const World& world, const Diagnostics& last) cons
         items.push_back(item("max_displacement", d, *c.max_displacement, d <= *c.max_displacement));
     }
     if (c.max_final_speed) {
-        const double v = max_speed(world);
+        const double v = vmax;
         items.push_back(item("max_final_speed", v, *c.max_final_speed, v <= *c.max_final_speed));
     }
     if (c.min_disabled) {
-        const double f = static_cast<double>(last.disabled) / static_cast<double>(world.body_count());
+        const double f = static_cast<double>(last.disabled) / static_cast<double>(world.global_body_count());
         items.push_back(item("min_disabled", f, *c.min_disabled, f >= *c.min_disabled));
     }
     if (c.max_escaped) {
@@ -98,7 +119,9 @@ nlohmann::json Checker::result(const World& world, const Diagnostics& last) cons
     position_items(scene_, now, extremes_, items);
     bool passed = true;
     for (const auto& i : items) passed = passed && i["passed"].get<bool>();
-    return {{"passed", passed}, {"items", items}};
+    const nlohmann::json verdict = {{"passed", passed}, {"items", items}};
+    from_root(domain_, verdict.dump());
+    return verdict;
 }
 
 }  // namespace parode

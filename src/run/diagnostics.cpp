@@ -4,23 +4,21 @@
 #include <cmath>
 
 #include "util/hash.hpp"
+#include "util/split_mix.hpp"
 
 namespace parode {
 namespace {
 
 static_assert(sizeof(dReal) == sizeof(double), "parode needs ODE in double precision");
 
-bool finite_state(dBodyID b) {
-    const dReal* arrays[4] = {dBodyGetPosition(b), dBodyGetQuaternion(b), dBodyGetLinearVel(b), dBodyGetAngularVel(b)};
-    const int sizes[4] = {3, 4, 3, 3};
-    for (int a = 0; a < 4; ++a) {
-        for (int i = 0; i < sizes[a]; ++i) if (!std::isfinite(arrays[a][i])) return false;
-    }
-    return true;
-}
+// Exact partial sums of one process, reduced over processes in one call.
+struct Sums {
+    enum { Kinetic, Potential, Mass, MassHeight, Px, Py, Pz, Lx, Ly, Lz, Depth, Count };
+    ExactSum s[Count];
+};
 
-// Kinetic energy and angular momentum contribution of one body.
-double add_body(dBodyID b, const Vec3& up, double g, Diagnostics& d) {
+// Kinetic energy, momenta and height of one body into the sums.
+void add_body(dBodyID b, const Vec3& up, double g, Sums& sums) {
     dMass m;
     dBodyGetMass(b, &m);
     const dReal* x = dBodyGetPosition(b);
@@ -33,61 +31,103 @@ double add_body(dBodyID b, const Vec3& up, double g, Diagnostics& d) {
     for (int i = 0; i < 3; ++i) iw[i] = m.I[4 * i] * wb[0] + m.I[4 * i + 1] * wb[1] + m.I[4 * i + 2] * wb[2];
     for (int i = 0; i < 3; ++i) L[i] = R[4 * i] * iw[0] + R[4 * i + 1] * iw[1] + R[4 * i + 2] * iw[2];
     const double h = x[0] * up[0] + x[1] * up[1] + x[2] * up[2];
-    d.kinetic += 0.5 * m.mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + 0.5 * (w[0] * L[0] + w[1] * L[1] + w[2] * L[2]);
-    d.potential += m.mass * g * h;
-    d.com_height += m.mass * h;
-    for (int i = 0; i < 3; ++i) d.momentum[i] += m.mass * v[i];
-    d.angular_momentum[0] += m.mass * (x[1] * v[2] - x[2] * v[1]) + L[0];
-    d.angular_momentum[1] += m.mass * (x[2] * v[0] - x[0] * v[2]) + L[1];
-    d.angular_momentum[2] += m.mass * (x[0] * v[1] - x[1] * v[0]) + L[2];
-    return m.mass;
+    ExactSum* s = sums.s;
+    s[Sums::Kinetic].add(0.5 * m.mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) +
+                         0.5 * (w[0] * L[0] + w[1] * L[1] + w[2] * L[2]));
+    s[Sums::Potential].add(m.mass * g * h);
+    s[Sums::Mass].add(m.mass);
+    s[Sums::MassHeight].add(m.mass * h);
+    for (int i = 0; i < 3; ++i) s[Sums::Px + i].add(m.mass * v[i]);
+    s[Sums::Lx].add(m.mass * (x[1] * v[2] - x[2] * v[1]) + L[0]);
+    s[Sums::Ly].add(m.mass * (x[2] * v[0] - x[0] * v[2]) + L[1]);
+    s[Sums::Lz].add(m.mass * (x[0] * v[1] - x[1] * v[0]) + L[2]);
 }
 
 }  // namespace
 
-std::uint64_t state_hash(const World& world) {
-    Fnv1a h;
-    for (dBodyID b : world.bodies()) {
-        h.add_doubles(dBodyGetPosition(b), 3);
-        h.add_doubles(dBodyGetQuaternion(b), 4);
-        h.add_doubles(dBodyGetLinearVel(b), 3);
-        h.add_doubles(dBodyGetAngularVel(b), 3);
+Vec3 up_direction(const Scene& scene) {
+    const Vec3& gv = scene.gravity;
+    const double g = std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
+    return g > 0 ? Vec3{-gv[0] / g, -gv[1] / g, -gv[2] / g} : Vec3{0, 0, 1};
+}
+
+bool finite_state(dBodyID b) {
+    const dReal* arrays[4] = {dBodyGetPosition(b), dBodyGetQuaternion(b), dBodyGetLinearVel(b), dBodyGetAngularVel(b)};
+    const int sizes[4] = {3, 4, 3, 3};
+    for (int a = 0; a < 4; ++a) {
+        for (int i = 0; i < sizes[a]; ++i) if (!std::isfinite(arrays[a][i])) return false;
     }
+    return true;
+}
+
+std::uint64_t body_digest(const World& world, std::size_t local) {
+    dBodyID b = world.body(local);
+    Fnv1a h;
+    h.add(world.gid(local));
+    h.add_doubles(dBodyGetPosition(b), 3);
+    h.add_doubles(dBodyGetQuaternion(b), 4);
+    h.add_doubles(dBodyGetLinearVel(b), 3);
+    h.add_doubles(dBodyGetAngularVel(b), 3);
     return h.value();
 }
 
-std::vector<std::size_t> nan_bodies(const World& world, std::size_t limit) {
-    std::vector<std::size_t> out;
+std::uint64_t state_hash(const World& world, const Domain& domain) {
+    std::uint64_t sum = 0;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) sum += body_digest(world, i);
+    }
+    domain.sum_wrapping(&sum, 1);
+    return SplitMix64::mix(sum);
+}
+
+std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
+    std::vector<std::uint32_t> out;
     for (std::size_t i = 0; i < world.body_count() && out.size() < limit; ++i) {
-        if (!finite_state(world.body(i))) out.push_back(i);
+        if (!world.ghost(i) && !finite_state(world.body(i))) out.push_back(world.gid(i));
     }
     return out;
 }
 
-Diagnostics observe(const World& world, const ContactBuffer& contacts) {
-    Diagnostics d;
+Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain) {
+    const Vec3 up = up_direction(world.scene());
     const Vec3& gv = world.scene().gravity;
     const double g = std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
-    const Vec3 up = g > 0 ? Vec3{-gv[0] / g, -gv[1] / g, -gv[2] / g} : Vec3{0, 0, 1};
-    double mass = 0;
-    for (dBodyID b : world.bodies()) {
+    Sums sums;
+    std::int64_t counts[3] = {0, 0, 0};  // nan, disabled, contacts
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        dBodyID b = world.body(i);
         if (!finite_state(b)) {
-            ++d.nan_count;
+            ++counts[0];
             continue;
         }
-        d.disabled += dBodyIsEnabled(b) ? 0 : 1;
-        mass += add_body(b, up, g, d);
+        counts[1] += dBodyIsEnabled(b) ? 0 : 1;
+        add_body(b, up, g, sums);
     }
-    if (mass > 0) d.com_height /= mass;
-    double sum = 0;
+    double max_depth = 0;
     for (const ContactRecord& c : contacts.items()) {
         if (world.ignores(c)) continue;
-        d.max_penetration = std::max(d.max_penetration, c.geom.depth);
-        sum += c.geom.depth;
-        ++d.contacts;
+        max_depth = std::max(max_depth, c.geom.depth);
+        sums.s[Sums::Depth].add(c.geom.depth);
+        ++counts[2];
     }
-    d.mean_penetration = d.contacts ? sum / static_cast<double>(d.contacts) : 0;
-    d.state_hash = state_hash(world);
+    domain.sum(sums.s, Sums::Count);
+    domain.sum(counts, 3);
+    Diagnostics d;
+    d.max_penetration = domain.max(max_depth);
+    d.nan_count = static_cast<std::size_t>(counts[0]);
+    d.disabled = static_cast<std::size_t>(counts[1]);
+    d.contacts = static_cast<std::size_t>(counts[2]);
+    d.kinetic = sums.s[Sums::Kinetic].value();
+    d.potential = sums.s[Sums::Potential].value();
+    const double mass = sums.s[Sums::Mass].value();
+    d.com_height = mass > 0 ? sums.s[Sums::MassHeight].value() / mass : 0.0;
+    for (int i = 0; i < 3; ++i) {
+        d.momentum[static_cast<std::size_t>(i)] = sums.s[Sums::Px + i].value();
+        d.angular_momentum[static_cast<std::size_t>(i)] = sums.s[Sums::Lx + i].value();
+    }
+    d.mean_penetration = d.contacts ? sums.s[Sums::Depth].value() / static_cast<double>(d.contacts) : 0;
+    d.state_hash = state_hash(world, domain);
     return d;
 }
 

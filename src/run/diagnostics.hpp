@@ -1,12 +1,20 @@
 // Diagnostics of a world state: energies, momenta, penetration, NaN count and
-// the state hash (FNV-1a over position, quaternion, linear and angular velocity
-// of every body, in global-id order, bit for bit).
+// the state hash. Sums over bodies and contacts are exact (ExactSum) and
+// reduced over processes through the Domain, so every diagnostic is the same
+// bits for any number of threads and processes.
+// The state hash: each body's FNV-1a 64 digest over its global id, position,
+// quaternion, linear and angular velocity (bit for bit), the digests summed
+// modulo 2^64 and mixed. A sum needs no order, so owned bodies are hashed
+// where they live and the per-process sums combine into the hash of the
+// whole state; the id in each digest ties every state to its body.
 // Trade-off: computed only on observed steps (every `observe_every`), since a
-// full pass over the bodies costs about as much as a force pass.
+// full pass over the bodies costs about as much as a force pass; exact sums
+// cost a few nanoseconds more per value than plain additions.
 #pragma once
 #include <cstdint>
 
 #include "collide/contacts.hpp"
+#include "domain/domain.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -26,9 +34,16 @@ struct Diagnostics {
     double energy() const { return kinetic + potential; }
 };
 
-std::uint64_t state_hash(const World& world);
-Diagnostics observe(const World& world, const ContactBuffer& contacts);
-// Ids of bodies whose state is not finite (at most `limit`).
-std::vector<std::size_t> nan_bodies(const World& world, std::size_t limit);
+// Unit vector against gravity (z when there is no gravity).
+Vec3 up_direction(const Scene& scene);
+bool finite_state(dBodyID b);
+// Digest of one body (its gid and state), the term of the state hash.
+std::uint64_t body_digest(const World& world, std::size_t local);
+// Collective: the hash of every body's state, over all processes.
+std::uint64_t state_hash(const World& world, const Domain& domain);
+// Collective: diagnostics of the owned bodies and contacts of every process.
+Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain);
+// Gids of owned bodies whose state is not finite (at most `limit`).
+std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit);
 
 }  // namespace parode

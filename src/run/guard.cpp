@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "run/pipeline.hpp"
@@ -21,19 +23,29 @@ double gravity_norm(const Scene& sc) {
     return std::sqrt(sc.gravity[0] * sc.gravity[0] + sc.gravity[1] * sc.gravity[1] + sc.gravity[2] * sc.gravity[2]);
 }
 
-// Potential energy above the lowest body, plus lifting every body by 1 m.
-double potential_headroom(const World& world) {
-    const double g = gravity_norm(world.scene());
-    double low = 1e300, mass = 0, mz = 0;
-    for (std::size_t i = 0; i < world.body_count(); ++i) low = std::min(low, dBodyGetPosition(world.body(i))[2]);
+double height(const World& world, std::size_t i, const Vec3& up) {
+    const dReal* x = dBodyGetPosition(world.body(i));
+    return x[0] * up[0] + x[1] * up[1] + x[2] * up[2];
+}
+
+// Collective: potential energy above the lowest body, plus lifting every body by 1 m.
+double potential_headroom(const World& world, const Domain& domain) {
+    const Vec3 up = up_direction(world.scene());
+    double low = HUGE_VAL;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) low = std::min(low, height(world, i, up));
+    }
+    low = domain.min(low);
+    ExactSum sums[2];  // mass, mass * height above the lowest
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
         dMass dm;
         dBodyGetMass(world.body(i), &dm);
-        const double m = dm.mass;
-        mass += m;
-        mz += m * (dBodyGetPosition(world.body(i))[2] - low);
+        sums[0].add(dm.mass);
+        sums[1].add(dm.mass * (height(world, i, up) - low));
     }
-    return g * (mz + mass * 1.0);
+    domain.sum(sums, 2);
+    return gravity_norm(world.scene()) * (sums[1].value() + sums[0].value() * 1.0);
 }
 
 // Softened-Coulomb energy of every pole at distance 0 from an opposite pole.
@@ -51,26 +63,59 @@ double motor_power(const ControllerSpec& c) {
     return 2.0 * (c.drive_joints.size() * c.drive_fmax * wheel + c.steer_joints.size() * c.steer_fmax * steer);
 }
 
-}  // namespace
-
-std::string fastest_bodies(const World& world, std::size_t limit) {
-    std::vector<std::pair<double, std::size_t>> v;
-    for (std::size_t i = 0; i < world.body_count(); ++i) v.emplace_back(speed(world.body(i)), i);
-    limit = std::min(limit, v.size());
-    std::partial_sort(v.begin(), v.begin() + static_cast<long>(limit), v.end(),
-                      [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
+// Collective: the first `limit` gids of all processes' non-finite bodies.
+std::string first_nan_ids(const World& world, const Domain& domain, std::size_t limit) {
+    std::string mine;
+    for (std::uint32_t id : nan_bodies(world, limit)) mine += std::to_string(id) + " ";
+    std::istringstream all(domain.all_text(mine, " "));
+    std::vector<std::uint32_t> ids;
+    for (std::uint32_t id; all >> id;) ids.push_back(id);
+    std::sort(ids.begin(), ids.end());
+    ids.resize(std::min(limit, ids.size()));
     std::ostringstream os;
-    for (std::size_t k = 0; k < limit; ++k) os << (k ? ", " : "") << v[k].second << " (" << v[k].first << " m/s)";
+    for (std::uint32_t id : ids) os << ' ' << id;
     return os.str();
 }
 
-Guard::Guard(const World& world, const Diagnostics& initial, std::string dump_path)
-    : scene_(world.scene()), initial_energy_(initial.energy()), dump_path_(std::move(dump_path)) {
+}  // namespace
+
+std::string fastest_bodies(const World& world, const Domain& domain, std::size_t limit) {
+    struct Entry {
+        double speed;
+        std::uint32_t gid;
+    };
+    std::vector<Entry> v;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) v.push_back({speed(world.body(i)), world.gid(i)});
+    }
+    auto faster = [](const Entry& a, const Entry& b) { return a.speed > b.speed || (a.speed == b.speed && a.gid < b.gid); };
+    const std::size_t k = std::min(limit, v.size());
+    std::partial_sort(v.begin(), v.begin() + static_cast<long>(k), v.end(), faster);
+    std::vector<char> mine(k * sizeof(Entry));
+    if (k) std::memcpy(mine.data(), v.data(), mine.size());
+    std::vector<Entry> all;
+    for (const auto& part : domain.all_gather(mine)) {
+        const std::size_t n = part.size() / sizeof(Entry);
+        const std::size_t at = all.size();
+        all.resize(at + n);
+        if (n) std::memcpy(all.data() + at, part.data(), part.size());
+    }
+    std::sort(all.begin(), all.end(), faster);
+    std::ostringstream os;
+    for (std::size_t j = 0; j < std::min(limit, all.size()); ++j) {
+        os << (j ? ", " : "") << all[j].gid << " (" << all[j].speed << " m/s)";
+    }
+    return os.str();
+}
+
+Guard::Guard(const World& world, const Diagnostics& initial, const Domain& domain, std::string dump_path)
+    : scene_(world.scene()), domain_(domain), initial_energy_(initial.energy()), dump_path_(std::move(dump_path)) {
     const GuardSpec& g = scene_.guard;
+    const double headroom = potential_headroom(world, domain);  // collective: always computed
     if (g.max_energy_gain) {
         base_bound_ = *g.max_energy_gain;
     } else {
-        base_bound_ = initial.kinetic + potential_headroom(world) + magnet_binding(scene_);
+        base_bound_ = initial.kinetic + headroom + magnet_binding(scene_);
         motor_power_ = motor_power(scene_.controller);
     }
     remember(world, 0);
@@ -86,33 +131,42 @@ nlohmann::json Guard::describe() const {
 }
 
 void Guard::check_step(const World& world, long step) const {
-    const std::vector<std::size_t> bad = nan_bodies(world, 10);
-    if (!bad.empty()) {
+    const double vmax = scene_.guard.max_speed;
+    std::int64_t bad[2] = {0, 0};  // non-finite, too fast
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        if (!finite_state(world.body(i))) ++bad[0];
+        else if (vmax > 0 && speed(world.body(i)) > vmax) ++bad[1];
+    }
+    domain_.sum(bad, 2);
+    if (bad[0]) {
         std::ostringstream os;
-        os << nan_bodies(world, world.body_count()).size() << " bodies have a non-finite state (first ids:";
-        for (std::size_t id : bad) os << ' ' << id;
-        os << ")";
+        os << bad[0] << " bodies have a non-finite state (first ids:" << first_nan_ids(world, domain_, 10) << ")";
         fail(world, step, os.str());
     }
-    const double vmax = scene_.guard.max_speed;
-    if (vmax <= 0) return;
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (speed(world.body(i)) <= vmax) continue;
+    if (bad[1]) {
         std::ostringstream os;
-        os << "body " << i << " moves faster than guard.max_speed = " << vmax << " m/s (fastest: "
-           << fastest_bodies(world, 5) << ")";
+        os << bad[1] << " bodies move faster than guard.max_speed = " << vmax << " m/s (fastest: "
+           << fastest_bodies(world, domain_, 5) << ")";
         fail(world, step, os.str());
     }
 }
 
 void Guard::check_observed(const World& world, const Diagnostics& d, long step) {
+    if (!std::isfinite(d.energy())) {
+        std::ostringstream os;
+        os << "the total energy is not finite (kinetic " << d.kinetic << " J, potential " << d.potential
+           << " J): a magnitude in the scene is beyond what double precision can square (fastest bodies: "
+           << fastest_bodies(world, domain_, 5) << ")";
+        fail(world, step, os.str());
+    }
     const double gain = d.energy() - initial_energy_;
     const double bound = energy_bound(step * scene_.dt);
     if (scene_.guard.energy && gain > bound) {
         std::ostringstream os;
         os << "runaway energy: total energy " << d.energy() << " J is " << gain << " J above the initial "
-           << initial_energy_ << " J, past the bound of " << bound << " J (fastest bodies: " << fastest_bodies(world, 5)
-           << ")";
+           << initial_energy_ << " J, past the bound of " << bound << " J (fastest bodies: "
+           << fastest_bodies(world, domain_, 5) << ")";
         fail(world, step, os.str());
     }
     remember(world, step);
@@ -121,30 +175,45 @@ void Guard::check_observed(const World& world, const Diagnostics& d, long step) 
 void Guard::remember(const World& world, long step) {
     if (dump_path_.empty()) return;
     good_.step = step;
-    good_.data.resize(13 * world.body_count());
-    double* out = good_.data.data();
-    for (dBodyID b : world.bodies()) {
+    good_.rows.clear();
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        dBodyID b = world.body(i);
+        good_.rows.push_back(world.gid(i));
         const dReal* arrays[4] = {dBodyGetPosition(b), dBodyGetQuaternion(b), dBodyGetLinearVel(b), dBodyGetAngularVel(b)};
         const int sizes[4] = {3, 4, 3, 3};
-        for (int a = 0; a < 4; ++a) for (int i = 0; i < sizes[a]; ++i) *out++ = arrays[a][i];
+        for (int a = 0; a < 4; ++a) good_.rows.insert(good_.rows.end(), arrays[a], arrays[a] + sizes[a]);
     }
 }
 
+// Collective: the root writes every process's last good rows, by gid.
 std::string Guard::dump() const {
-    std::ofstream out(dump_path_);
-    out << "# parode last good state: scene " << scene_.name << ", step " << good_.step << ", time "
-        << good_.step * scene_.dt << " s\nbody,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n";
-    char buf[32];
-    for (std::size_t i = 0; i < good_.data.size() / 13; ++i) {
-        out << i;
-        for (int k = 0; k < 13; ++k) {
-            std::snprintf(buf, sizeof buf, ",%.17g", good_.data[13 * i + k]);
-            out << buf;
+    std::vector<char> mine(good_.rows.size() * sizeof(double));
+    if (!mine.empty()) std::memcpy(mine.data(), good_.rows.data(), mine.size());
+    const auto parts = domain_.gather(mine);
+    std::string result;
+    if (domain_.root()) {
+        std::map<std::uint32_t, const double*> rows;
+        for (const auto& part : parts) {
+            const auto* d = reinterpret_cast<const double*>(part.data());
+            for (std::size_t at = 0; at + 14 <= part.size() / sizeof(double); at += 14) rows[static_cast<std::uint32_t>(d[at])] = d + at + 1;
         }
-        out << '\n';
+        std::ofstream out(dump_path_);
+        out << "# parode last good state: scene " << scene_.name << ", step " << good_.step << ", time "
+            << good_.step * scene_.dt << " s\nbody,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n";
+        char buf[32];
+        for (const auto& [gid, row] : rows) {
+            out << gid;
+            for (int k = 0; k < 13; ++k) {
+                std::snprintf(buf, sizeof buf, ",%.17g", row[k]);
+                out << buf;
+            }
+            out << '\n';
+        }
+        result = out ? "; last good state (step " + std::to_string(good_.step) + ") written to " + dump_path_
+                     : "; the last good state could not be written to " + dump_path_;
     }
-    if (!out) return "; the last good state could not be written to " + dump_path_;
-    return "; last good state (step " + std::to_string(good_.step) + ") written to " + dump_path_;
+    return result;
 }
 
 void Guard::fail(const World&, long step, const std::string& what) const {

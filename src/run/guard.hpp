@@ -1,22 +1,28 @@
 // The run guard: stops a run at once, with an error naming the step and the
 // bodies, when a body's state becomes non-finite (checked every step), a body
-// exceeds [guard] max_speed (every step), or the total energy grows past a
-// bound (every observed step). When asked, the last observed state that passed
-// every check is written out (CSV, full precision) before the run stops.
+// exceeds [guard] max_speed (every step), or the total energy is not finite or
+// grows past a bound (every observed step). When asked, the last observed
+// state that passed every check is written out (CSV, full precision, bodies in
+// global-id order) before the run stops.
 // The automatic energy bound is what the scene can legitimately add to its
 // energy: the initial kinetic energy, the potential energy above the lowest
-// body, the energy of lifting every body by 1 m, the binding energy of the
-// magnets (their potential is not in the reported energy), and the controller's
-// motors at full power for the elapsed time.
-// Trade-off: the finite check costs one pass over the bodies per step (small
-// next to collision); keeping the last good state costs a copy of every body's
-// state per observed step, so it is made only when a dump file is requested.
+// body (along gravity), the energy of lifting every body by 1 m, the binding
+// energy of the magnets (their potential is not in the reported energy), and
+// the controller's motors at full power for the elapsed time.
+// Collective: every check is decided on counts and diagnostics reduced over
+// all processes, so every process stops at the same step with the same
+// message (the root prints it), and none waits for a process that stopped.
+// Trade-off: the per-step checks cost one pass over the owned bodies and,
+// with several processes, one small reduction per step; keeping the last good
+// state costs a copy of every owned body's state per observed step, so it is
+// made only when a dump file is requested.
 #pragma once
 #include <nlohmann/json.hpp>
 
 #include <string>
 #include <vector>
 
+#include "domain/domain.hpp"
 #include "run/diagnostics.hpp"
 #include "world/world.hpp"
 
@@ -24,7 +30,7 @@ namespace parode {
 
 class Guard {
 public:
-    Guard(const World& world, const Diagnostics& initial, std::string dump_path);
+    Guard(const World& world, const Diagnostics& initial, const Domain& domain, std::string dump_path);
     // Every step: non-finite state and the speed bound. Throws SimulationError.
     void check_step(const World& world, long step) const;
     // Observed steps: the energy bound; a passing state becomes the last good one.
@@ -36,13 +42,14 @@ public:
 private:
     struct State {
         long step = 0;
-        std::vector<double> data;  // 13 per body: x, q, v, w
+        std::vector<double> rows;  // per owned body: gid, then x, q, v, w
     };
     [[noreturn]] void fail(const World& world, long step, const std::string& what) const;
     void remember(const World& world, long step);
     std::string dump() const;
 
     const Scene& scene_;
+    const Domain& domain_;
     double initial_energy_ = 0;
     double base_bound_ = 0;    // J
     double motor_power_ = 0;   // W
@@ -50,7 +57,7 @@ private:
     State good_;
 };
 
-// Ids of the `limit` bodies with the largest speed, "id (speed m/s)" joined.
-std::string fastest_bodies(const World& world, std::size_t limit);
+// Collective: the `limit` fastest bodies of all processes, "gid (speed m/s)" joined.
+std::string fastest_bodies(const World& world, const Domain& domain, std::size_t limit);
 
 }  // namespace parode

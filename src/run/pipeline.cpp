@@ -3,38 +3,49 @@
 
 #include <chrono>
 
+#include "domain/gather.hpp"
 #include "forces/controller.hpp"
 
 namespace parode {
 
 const char* stage_name(Stage s) {
-    static const char* names[kStageCount] = {"forces", "collide", "joints", "solve", "observe", "output"};
+    static const char* names[kStageCount] = {"migrate", "exchange", "forces", "collide",
+                                             "joints",  "solve",    "observe", "output"};
     return names[static_cast<int>(s)];
 }
 
 Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene) {
+    if (!options.domain) own_domain_ = std::make_unique<Domain>();
+    domain_ = options.domain ? options.domain : own_domain_.get();
+    domain_->check_scene(scene, options.collide, options.solver);
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
-    world_ = std::make_unique<World>(scene, backend_->space_kind());
+    const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
+    world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
+    solver_->set_exchange(domain_->corrections());
     plan_stages(scene, options);
-    if (stage(Stage::Forces).enabled && scene.any_magnets()) {
-        magnets_ = std::make_unique<MagnetField>(scene);
-        wrenches_.resize(magnets_->members().size());
-    }
-    if (stage(Stage::Output).enabled) {
+    if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
+    if (stage(Stage::Output).enabled && domain_->root()) {
         snapshot_.open(options.snapshot_path);
         if (!snapshot_) throw std::runtime_error(options.snapshot_path + ": cannot open snapshot file for writing");
         snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
-        snapshot_every_ = options.snapshot_every;
     }
-    initial_ = observe(*world_, contacts_);
-    guard_ = std::make_unique<Guard>(*world_, initial_, options.dump_path);
-    if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_);
+    snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
+#ifdef NDEBUG
+    invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
+#else
+    invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 1;
+#endif
+    timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
+    timed(Stage::Collide, [this] { run_collide(); });
+    initial_ = observe(*world_, contacts_, *domain_);
+    guard_ = std::make_unique<Guard>(*world_, initial_, *domain_, options.dump_path);
+    if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_, *domain_);
     if (options.record_trajectory) {
         trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
-        trajectory_->frames.push_back(capture_frame(*world_, initial_, 0, 0.0));
+        trajectory_->frames.push_back(capture_frame(*world_, initial_, 0, 0.0, *domain_));
     }
 }
 
@@ -47,6 +58,9 @@ void Pipeline::plan_stages(const Scene& scene, const RunOptions& options) {
         stages_[static_cast<int>(s)].enabled = on;
         stages_[static_cast<int>(s)].reason = std::move(why);
     };
+    const bool many = domain_->distributed();
+    set(Stage::Migrate, many, domain_->why());
+    set(Stage::Exchange, many, domain_->why());
     const bool magnets = scene.any_magnets();
     const bool driver = scene.controller.enabled;
     set(Stage::Forces, magnets || driver,
@@ -70,10 +84,14 @@ void Pipeline::timed(Stage s, F&& f) {
 }
 
 void Pipeline::step() {
+    timed(Stage::Migrate, [this] { run_migrate(); });
+    timed(Stage::Exchange, [this] { domain_->exchange_states(*world_); });
     timed(Stage::Forces, [this] { run_forces(); });
-    timed(Stage::Collide, [this] { run_collide(); });
+    if (stage(Stage::Forces).enabled) timed(Stage::Exchange, [this] { domain_->exchange_forces(*world_); });
+    if (contacts_of_ != world_->generation()) timed(Stage::Collide, [this] { run_collide(); });
     timed(Stage::Joints, [this] { run_joints(); });
     timed(Stage::Solve, [this] { run_solve(); });
+    contacts_of_ = ~0ULL;  // bodies moved
     ++steps_;
     timed(Stage::Observe, [this] { guard_->check_step(*world_, steps_); });
     if (steps_ % scene_.observe_every == 0) timed(Stage::Observe, [this] { run_observe(); });
@@ -82,6 +100,11 @@ void Pipeline::step() {
 
 void Pipeline::finish() {
     if (last_observed_ != steps_) timed(Stage::Observe, [this] { run_observe(); });
+}
+
+void Pipeline::run_migrate() {
+    domain_->migrate(*world_, solver_->warm_impulses(), steps_);
+    if (invariants_every_ > 0 && steps_ % invariants_every_ == 0) domain_->check_invariants(*world_, steps_);
 }
 
 void Pipeline::run_forces() {
@@ -95,7 +118,14 @@ void Pipeline::run_forces() {
 
 void Pipeline::run_collide() {
     backend_->collide(world_->space(), scene_.solver.max_contacts, contacts_);
+    if (domain_->distributed()) {  // each contact belongs to the owner of its lower-id body
+        auto& items = contacts_.items();
+        items.erase(std::remove_if(items.begin(), items.end(),
+                                   [this](const ContactRecord& c) { return world_->ghost(World::local_of_geom(c.geom.g1)); }),
+                    items.end());
+    }
     totals_.contacts += contacts_.size();
+    contacts_of_ = world_->generation();
 }
 
 void Pipeline::run_joints() {
@@ -106,22 +136,27 @@ void Pipeline::run_joints() {
 void Pipeline::run_solve() { solver_->step(*world_, contacts_); }
 
 void Pipeline::run_observe() {
-    last_ = observe(*world_, contacts_);
+    last_ = observe(*world_, contacts_, *domain_);
     last_observed_ = steps_;
     totals_.max_penetration = std::max(totals_.max_penetration, last_.max_penetration);
     totals_.penetration_sum += last_.mean_penetration * static_cast<double>(last_.contacts);
     totals_.observed_contacts += last_.contacts;
     guard_->check_observed(*world_, last_, steps_);
     if (checker_) checker_->observe(*world_, last_);
-    if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt));
+    if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt, *domain_));
 }
 
 void Pipeline::run_output() {
-    for (std::size_t i = 0; i < world_->body_count(); ++i) {
+    const std::vector<double> rows = gather_rows(*domain_, *world_, 7, [this](std::size_t i, double* out) {
         const dReal* p = dBodyGetPosition(world_->body(i));
         const dReal* q = dBodyGetQuaternion(world_->body(i));
-        snapshot_ << steps_ << ',' << i << ',' << p[0] << ',' << p[1] << ',' << p[2] << ',' << q[0] << ','
-                  << q[1] << ',' << q[2] << ',' << q[3] << '\n';
+        for (int k = 0; k < 3; ++k) out[k] = p[k];
+        for (int k = 0; k < 4; ++k) out[3 + k] = q[k];
+    });
+    for (std::size_t i = 0; i < rows.size() / 7; ++i) {
+        const double* r = rows.data() + 7 * i;
+        snapshot_ << steps_ << ',' << i << ',' << r[0] << ',' << r[1] << ',' << r[2] << ',' << r[3] << ',' << r[4]
+                  << ',' << r[5] << ',' << r[6] << '\n';
     }
 }
 

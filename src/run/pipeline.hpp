@@ -1,7 +1,12 @@
-// The step pipeline: forces -> collide -> joints -> solve -> observe -> output,
-// each stage timed, each enabled only when the scene needs it (the reason is
-// recorded for the run report). Stage implementations are chosen at run time:
-// the collide backend from the registry, the magnet gather from magnets.hpp.
+// The step pipeline: migrate -> exchange -> forces -> collide -> joints ->
+// solve -> observe -> output, each stage timed, each enabled only when the
+// scene and the domain need it (the reason is recorded for the run report).
+// Stage implementations are chosen at run time: the collide backend and the
+// solver from their registries, the magnet gather from magnets.hpp, the
+// distribution over processes from the Domain (migrate and exchange do
+// nothing on one process). The contacts of the initial state are computed at
+// construction, so the first observed frame has its penetration, and the
+// first step reuses them (nothing has moved in between).
 // Trade-off: one virtual call per stage per step; negligible next to the work.
 #pragma once
 #include <array>
@@ -12,6 +17,7 @@
 
 #include "run/checks.hpp"
 #include "collide/collide.hpp"
+#include "domain/domain.hpp"
 #include "run/diagnostics.hpp"
 #include "run/guard.hpp"
 #include "forces/magnets.hpp"
@@ -21,7 +27,7 @@
 
 namespace parode {
 
-enum class Stage : int { Forces, Collide, Joints, Solve, Observe, Output, Count };
+enum class Stage : int { Migrate, Exchange, Forces, Collide, Joints, Solve, Observe, Output, Count };
 constexpr int kStageCount = static_cast<int>(Stage::Count);
 const char* stage_name(Stage s);
 
@@ -39,6 +45,8 @@ struct RunOptions {
     int snapshot_every = 0;
     bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
     std::string dump_path;           // guard: where to write the last good state on failure
+    Domain* domain = nullptr;        // the processes of the run; null: this one alone
+    int invariants_every = 0;        // steps between invariant checks; 0: the build's default
 };
 
 // A run that cannot go on (NaN, runaway): names the step and the bodies.
@@ -71,6 +79,7 @@ public:
     const RunTotals& totals() const { return totals_; }
     const CollideBackend& backend() const { return *backend_; }
     const Diagnostics& initial() const { return initial_; }
+    const Domain& domain() const { return *domain_; }
     const Guard& guard() const { return *guard_; }
     // Recorded frames (null unless RunOptions::record_trajectory).
     const Trajectory* trajectory() const { return trajectory_.get(); }
@@ -80,6 +89,7 @@ public:
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
+    void run_migrate();
     void run_forces();
     void run_collide();
     void run_joints();
@@ -90,6 +100,8 @@ private:
     void timed(Stage s, F&& f);
 
     const Scene& scene_;
+    std::unique_ptr<Domain> own_domain_;
+    Domain* domain_ = nullptr;
     std::unique_ptr<CollideBackend> backend_;
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;
@@ -105,8 +117,10 @@ private:
     std::unique_ptr<Trajectory> trajectory_;
     std::ofstream snapshot_;
     int snapshot_every_ = 0;
+    int invariants_every_ = 0;
     int steps_ = 0;
     int last_observed_ = -1;
+    std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
 };
 
 }  // namespace parode

@@ -66,8 +66,8 @@ ContactSolver::ContactSolver(const Scene& scene) : scene_(scene) {
 void ContactSolver::cell_key(std::size_t k) {
     constexpr std::int64_t kBias = 1 << 20;
     const ContactRecord& r = contacts_->items()[k];
-    const std::uint32_t owner = r.lo < world_->body_count() ? r.lo : r.hi;  // a dynamic body
-    const dReal* x = dBodyGetPosition(world_->body(owner));
+    dGeomID owner = world_->is_body_id(r.lo) ? r.geom.g1 : r.geom.g2;  // a dynamic body
+    const dReal* x = dBodyGetPosition(dGeomGetBody(owner));
     std::uint64_t q[3], colour = 0;
     for (int a = 0; a < 3; ++a) {
         q[a] = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x[a] / cell_size_)) + kBias) & 0x1FFFFF;
@@ -140,16 +140,15 @@ void ContactSolver::prepare_body(std::size_t i) {
 
 void ContactSolver::build_block(std::size_t slot) {
     const ContactRecord& r = contacts_->items()[slot_contact_[slot]];
-    const std::size_t nb = world_->body_count();
     Block& K = blocks_[slot];
-    K.b1 = r.lo < nb ? static_cast<std::int32_t>(r.lo) : -1;
-    K.b2 = r.hi < nb ? static_cast<std::int32_t>(r.hi) : -1;
+    K.b1 = world_->is_body_id(r.lo) ? static_cast<std::int32_t>(World::local_of_geom(r.geom.g1)) : -1;
+    K.b2 = world_->is_body_id(r.hi) ? static_cast<std::int32_t>(World::local_of_geom(r.geom.g2)) : -1;
     double n[3] = {r.geom.normal[0], r.geom.normal[1], r.geom.normal[2]};
     if (K.b1 < 0) {  // as ODE's reversed contact joint: body first, normal flipped
         std::swap(K.b1, K.b2);
         for (double& x : n) x = -x;
     }
-    const dSurfaceParameters& s = world_->surface(world_->geom_material(r.lo), world_->geom_material(r.hi));
+    const dSurfaceParameters& s = world_->surface(world_->material_of(r.lo), world_->material_of(r.hi));
     const SolverSpec& sv = scene_.solver;
     const double fps = 1.0 / scene_.dt;
     const dReal* x1 = dBodyGetPosition(world_->body(static_cast<std::size_t>(K.b1)));
@@ -232,7 +231,7 @@ void ContactSolver::match_previous(const ContactBuffer& contacts) {
     std::size_t p = 0;
     for (std::size_t k = 0; k < items.size() && p < previous_.size(); ++k) {
         const ContactRecord& r = items[k];
-        auto before = [&r](const Remembered& m) {
+        auto before = [&r](const WarmImpulse& m) {
             return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
         };
         while (p < previous_.size() && before(previous_[p])) ++p;
@@ -244,7 +243,7 @@ void ContactSolver::match_previous(const ContactBuffer& contacts) {
 
 void ContactSolver::remember_block(std::size_t s) {
     const ContactRecord& r = contacts_->items()[slot_contact_[s]];
-    Remembered& m = previous_[slot_contact_[s]];
+    WarmImpulse& m = previous_[slot_contact_[s]];
     m.lo = r.lo;
     m.hi = r.hi;
     m.index = r.index;
@@ -283,6 +282,7 @@ void ContactSolver::relax(std::size_t k) {
 // The explicit update of ODE's steppers (dxStepBody, no damping, no finite
 // rotation): v += h (invM fe + fc); x += h v; q += h/2 (0, w) q, normalised.
 void ContactSolver::integrate_body(std::size_t i) {
+    if (world_->ghost(i)) return;  // its owner integrates it
     Body& B = bodies_[i];
     dBodyID b = world_->body(i);
     const double h = scene_.dt;
@@ -329,6 +329,7 @@ void ContactSolver::iterate() {
     for (int it = 0; it < iterations(); ++it) {
         for (int c = 0; c < colours(); ++c) {
             for (std::size_t t = colour_begin(c); t < colour_end(c); ++t) relax_cell(t);
+            exchange_after(c);
         }
     }
 }
@@ -336,7 +337,30 @@ void ContactSolver::iterate() {
 void ContactSolver::warm_start() {
     for (int c = 0; c < colours(); ++c) {
         for (std::size_t t = colour_begin(c); t < colour_end(c); ++t) warm_cell(t);
+        exchange_after(c);
     }
+}
+
+// The bodies each colour's cells touch, each once per colour (a body is
+// touched by at most one cell of a colour).
+void ContactSolver::plan_exchange() {
+    touched_.resize(static_cast<std::size_t>(colours()));
+    stamp_.assign(bodies_.size(), 0);
+    for (int c = 0; c < colours(); ++c) {
+        auto& list = touched_[static_cast<std::size_t>(c)];
+        list.clear();
+        const auto mark = static_cast<std::uint32_t>(c + 1);
+        auto add = [&](std::int32_t b) {
+            if (b < 0 || stamp_[static_cast<std::size_t>(b)] == mark) return;
+            stamp_[static_cast<std::size_t>(b)] = mark;
+            list.push_back(static_cast<std::uint32_t>(b));
+        };
+        for (std::size_t k = cell_start_[colour_begin(c)]; k < cell_start_[colour_end(c)]; ++k) {
+            add(blocks_[k].b1);
+            add(blocks_[k].b2);
+        }
+    }
+    exchange_->plan(touched_);
 }
 
 void ContactSolver::integrate() {
@@ -345,13 +369,12 @@ void ContactSolver::integrate() {
 
 void ContactSolver::commit(World& world) const {
     for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: the setters move geoms in the space
+        if (world.ghost(i)) continue;
         const Body& B = bodies_[i];
         dBodyID b = world.body(i);
         dBodySetLinearVel(b, B.tmp[0], B.tmp[1], B.tmp[2]);
         dBodySetAngularVel(b, B.tmp[3], B.tmp[4], B.tmp[5]);
-        dBodySetPosition(b, B.next[0], B.next[1], B.next[2]);
-        const dQuaternion q = {B.next[3], B.next[4], B.next[5], B.next[6]};
-        dBodySetQuaternion(b, q);
+        world.set_pose(i, B.next.data(), B.next.data() + 3);
         dBodySetForce(b, 0, 0, 0);
         dBodySetTorque(b, 0, 0, 0);
     }
@@ -368,6 +391,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     blocks_.resize(contacts.size());
     prepare_bodies();
     build_blocks();
+    if (exchange_) plan_exchange();
     if (scene_.solver.warm_start) warm_start();
     iterate();
     previous_.resize(contacts.size());

@@ -28,6 +28,29 @@
 
 namespace parode {
 
+// A contact's impulses at the end of a step, kept for the next step's warm
+// start, by canonical key. Sorted by (lo, hi, index).
+struct WarmImpulse {
+    std::uint32_t lo, hi, index;
+    double lambda[3];
+};
+
+// Keeps copies of shared bodies consistent during the solve of a distributed
+// run: after each colour of each sweep, the velocity corrections (inv(M) J^T
+// lambda, 6 doubles a body) of the bodies that this process's cells of that
+// colour touched go to the processes holding copies of them, and theirs come
+// in. Cells of one colour touch disjoint bodies, so every body's corrections
+// are summed in the same order as on one process.
+class CorrectionExchange {
+public:
+    virtual ~CorrectionExchange() = default;
+    // Once a step, before the warm start: the local bodies that this
+    // process's cells of each colour touch (each listed once per colour).
+    virtual void plan(const std::vector<std::vector<std::uint32_t>>& touched) = 0;
+    // After colour `c`: send this process's corrections, take the others'.
+    virtual void exchange(int colour, std::array<double, 6>* fc) = 0;
+};
+
 class ContactSolver : public SolverBackend {
 public:
     explicit ContactSolver(const Scene& scene);
@@ -37,6 +60,9 @@ public:
 
     int colours() const { return static_cast<int>(colour_start_.size()) - 1; }
     std::size_t blocks() const { return blocks_.size(); }
+    std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
+    void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
+    double cell_size() const { return cell_size_; }
 
 protected:
     struct Body {
@@ -91,16 +117,18 @@ protected:
     void relax_cell(std::size_t t);
     void warm_cell(std::size_t t);
     int iterations() const { return scene_.solver.iterations; }
+    // After colour c of a sweep (serially, between the colours).
+    void exchange_after(int c) {
+        if (exchange_) exchange_->exchange(c, fc_.data());
+    }
+    bool exchanging() const { return exchange_ != nullptr; }
+    bool ghost(std::size_t i) const { return world_->ghost(i); }
 
 private:
     void colour(const ContactBuffer& contacts);
+    void plan_exchange();
     void match_previous(const ContactBuffer& contacts);
     void commit(World& world) const;
-
-    struct Remembered {
-        std::uint32_t lo, hi, index;
-        double lambda[3];
-    };
 
     const Scene& scene_;
     const World* world_ = nullptr;
@@ -113,8 +141,11 @@ private:
     std::vector<std::size_t> colour_start_;     // colour -> first cell
     std::vector<std::size_t> cell_start_;       // cell -> first block slot
     double cell_size_ = 1.0;
-    std::vector<Remembered> previous_;           // last step's impulses, canonical order
+    std::vector<WarmImpulse> previous_;          // last step's impulses, canonical order
     std::vector<std::int64_t> warm_;             // contact -> index into previous_, or -1
+    CorrectionExchange* exchange_ = nullptr;
+    std::vector<std::vector<std::uint32_t>> touched_;  // per colour, for the exchange
+    std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
 };
 
 }  // namespace parode

@@ -19,6 +19,9 @@
 
 namespace parode {
 
+struct WarmImpulse;
+class CorrectionExchange;
+
 class SolverBackend {
 public:
     virtual ~SolverBackend() = default;
@@ -28,6 +31,11 @@ public:
     // True if the joints stage must turn contacts into ODE contact joints.
     virtual bool uses_contact_joints() const = 0;
     virtual void step(World& world, const ContactBuffer& contacts) = 0;
+    // The impulses kept for the next step's warm start (moved with their
+    // bodies between processes), or null.
+    virtual std::vector<WarmImpulse>* warm_impulses() { return nullptr; }
+    // Where a distributed run exchanges corrections during the solve.
+    virtual void set_exchange(CorrectionExchange* /*exchange*/) {}
 };
 
 // Factories take the scene and the run's thread count.

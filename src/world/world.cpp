@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <mutex>
 #include <stdexcept>
 
@@ -13,6 +14,7 @@ namespace {
 
 constexpr unsigned long kDynamicCategory = 1;
 constexpr unsigned long kStaticCategory = 2;
+constexpr unsigned long kGhostCategory = 4;
 
 dSpaceID make_space(SpaceKind kind) {
     switch (kind) {
@@ -35,7 +37,7 @@ void set_mass(dBodyID b, const BodySpec& s) {
     dBodySetMass(b, &m);
 }
 
-void set_pose(dGeomID g, const Vec3& p, const Quat& q) {
+void place_geom(dGeomID g, const Vec3& p, const Quat& q) {
     dGeomSetPosition(g, p[0], p[1], p[2]);
     const dQuaternion dq{q[0], q[1], q[2], q[3]};
     dGeomSetQuaternion(g, dq);
@@ -60,7 +62,8 @@ void ensure_ode_initialised() {
     });
 }
 
-World::World(const Scene& scene, SpaceKind space_kind) : scene_(scene) {
+World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::uint32_t>* gids)
+    : scene_(scene), global_(scene.body_count()) {
     ensure_ode_initialised();
     dRandSetSeed(static_cast<unsigned long>(scene.seed));
     world_ = dWorldCreate();
@@ -79,8 +82,11 @@ World::World(const Scene& scene, SpaceKind space_kind) : scene_(scene) {
     dWorldSetAutoDisableAngularThreshold(world_, s.auto_disable_angular);
     dWorldSetAutoDisableSteps(world_, s.auto_disable_steps);
     dWorldSetAutoDisableTime(world_, 0);
-    build_bodies();
+    const std::size_t n = gids ? gids->size() : global_;
+    map_.reset(global_, n);
+    bodies_.reserve(n);
     build_statics();
+    for (std::size_t i = 0; i < n; ++i) add_body(gids ? (*gids)[i] : static_cast<std::uint32_t>(i), false);
     build_joints();
     build_surfaces();
 }
@@ -101,39 +107,115 @@ dGeomID World::make_geom(const Shape& s) {
     return dCreateCylinder(space_, s.radius, s.length);
 }
 
-void World::build_bodies() {
-    bodies_.reserve(scene_.body_count());
-    geoms_.reserve(scene_.body_count() + scene_.statics.size() + scene_.planes.size());
-    for (std::size_t gid = 0; gid < scene_.body_count(); ++gid) {
-        const BodySpec s = scene_.body(gid);
-        dBodyID b = dBodyCreate(world_);
-        set_mass(b, s);
-        dGeomID g = make_geom(s.shape);
-        dGeomSetBody(g, b);
-        set_pose(g, s.position, s.orientation);
-        dBodySetLinearVel(b, s.velocity[0], s.velocity[1], s.velocity[2]);
-        dBodySetAngularVel(b, s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
-        dBodySetData(b, reinterpret_cast<void*>(static_cast<std::uintptr_t>(bodies_.size())));
-        set_geom_id(g, static_cast<std::uint32_t>(geoms_.size()));
-        dGeomSetCategoryBits(g, kDynamicCategory);
-        dGeomSetCollideBits(g, ~0UL);
-        bodies_.push_back(b);
-        geoms_.push_back(g);
-        geom_material_.push_back(s.material);
+std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* state, const Vec3* origin) {
+    const BodySpec s = scene_.body(gid);
+    const std::size_t local = bodies_.size();
+    dBodyID b = dBodyCreate(world_);
+    set_mass(b, s);
+    dGeomID g = make_geom(s.shape);
+    dGeomSetBody(g, b);
+    place_geom(g, s.position, s.orientation);
+    dBodySetLinearVel(b, s.velocity[0], s.velocity[1], s.velocity[2]);
+    dBodySetAngularVel(b, s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
+    dBodySetData(b, reinterpret_cast<void*>(static_cast<std::uintptr_t>(local)));
+    set_geom_id(g, gid);
+    bodies_.push_back(b);
+    gids_.push_back(gid);
+    ghost_.push_back(0);
+    q_in_.push_back({s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3]});
+    origin_.push_back(origin ? *origin : s.position);
+    geoms_.insert(geoms_.begin() + static_cast<std::ptrdiff_t>(local), g);
+    map_.set(gid, static_cast<std::uint32_t>(local));
+    ++owned_;
+    set_ghost(local, ghost);
+    if (state) set_state(local, *state);
+    ++generation_;
+    return local;
+}
+
+void World::remove_body(std::size_t local) {
+    const std::size_t last = bodies_.size() - 1;
+    if (!ghost_[local]) --owned_;
+    map_.erase(gids_[local]);
+    dGeomDestroy(geoms_[local]);
+    dBodyDestroy(bodies_[local]);
+    if (local != last) {
+        bodies_[local] = bodies_[last];
+        gids_[local] = gids_[last];
+        ghost_[local] = ghost_[last];
+        q_in_[local] = q_in_[last];
+        origin_[local] = origin_[last];
+        geoms_[local] = geoms_[last];
+        dBodySetData(bodies_[local], reinterpret_cast<void*>(static_cast<std::uintptr_t>(local)));
+        map_.set(gids_[local], static_cast<std::uint32_t>(local));
     }
+    bodies_.pop_back();
+    gids_.pop_back();
+    ghost_.pop_back();
+    q_in_.pop_back();
+    origin_.pop_back();
+    geoms_.erase(geoms_.begin() + static_cast<std::ptrdiff_t>(last));
+    ++generation_;
+}
+
+void World::set_ghost(std::size_t local, bool ghost) {
+    if ((ghost_[local] != 0) != ghost) {
+        if (ghost) --owned_;
+        else ++owned_;
+    }
+    ghost_[local] = ghost ? 1 : 0;
+    dGeomID g = geoms_[local];
+    dGeomSetCategoryBits(g, ghost ? kGhostCategory : kDynamicCategory);
+    dGeomSetCollideBits(g, ghost ? kDynamicCategory : ~0UL);
+}
+
+BodyState World::state(std::size_t local) const {
+    BodyState s;
+    dBodyID b = bodies_[local];
+    const dReal* x = dBodyGetPosition(b);
+    const dReal* v = dBodyGetLinearVel(b);
+    const dReal* w = dBodyGetAngularVel(b);
+    for (int k = 0; k < 3; ++k) {
+        s.x[k] = x[k];
+        s.v[k] = v[k];
+        s.w[k] = w[k];
+    }
+    for (int k = 0; k < 4; ++k) s.q[k] = q_in_[local][static_cast<std::size_t>(k)];
+    return s;
+}
+
+void World::set_state(std::size_t local, const BodyState& s) {
+    set_pose(local, s.x, s.q);
+    dBodySetLinearVel(bodies_[local], s.v[0], s.v[1], s.v[2]);
+    dBodySetAngularVel(bodies_[local], s.w[0], s.w[1], s.w[2]);
+}
+
+void World::set_pose(std::size_t local, const double x[3], const double q[4]) {
+    dBodyID b = bodies_[local];
+    dBodySetPosition(b, x[0], x[1], x[2]);
+    const dQuaternion dq = {q[0], q[1], q[2], q[3]};
+    dBodySetQuaternion(b, dq);
+    for (int k = 0; k < 4; ++k) q_in_[local][static_cast<std::size_t>(k)] = q[k];
+}
+
+int World::material_of(std::uint32_t geom_id) const {
+    if (geom_id < global_) {
+        return geom_id < scene_.bodies.size() ? scene_.bodies[geom_id].material : scene_.catoms.proto.material;
+    }
+    return static_material_[geom_id - global_];
 }
 
 void World::build_statics() {
     auto add = [this](dGeomID g, int material) {
-        set_geom_id(g, static_cast<std::uint32_t>(geoms_.size()));
+        set_geom_id(g, static_cast<std::uint32_t>(global_ + static_material_.size()));
         dGeomSetCategoryBits(g, kStaticCategory);
         dGeomSetCollideBits(g, kDynamicCategory);
         geoms_.push_back(g);
-        geom_material_.push_back(material);
+        static_material_.push_back(material);
     };
     for (const StaticGeom& s : scene_.statics) {
         dGeomID g = make_geom(s.shape);
-        set_pose(g, s.position, s.orientation);
+        place_geom(g, s.position, s.orientation);
         add(g, s.material);
     }
     for (const PlaneSpec& p : scene_.planes) {
@@ -150,7 +232,11 @@ void World::build_joints() {
             case JointKind::Ball: id = dJointCreateBall(world_, nullptr); break;
             case JointKind::Fixed: id = dJointCreateFixed(world_, nullptr); break;
         }
-        dJointAttach(id, j.body_a >= 0 ? bodies_[j.body_a] : nullptr, j.body_b >= 0 ? bodies_[j.body_b] : nullptr);
+        auto held = [this](int gid) {
+            const std::uint32_t local = gid >= 0 ? map_.find(static_cast<std::uint32_t>(gid)) : IdMap::kNone;
+            return local == IdMap::kNone ? nullptr : bodies_[local];
+        };
+        dJointAttach(id, held(j.body_a), held(j.body_b));
         const Vec3& a = j.anchor;
         switch (j.kind) {
             case JointKind::Hinge2: {
@@ -220,7 +306,7 @@ void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
         if (ignores(r)) continue;
         dBodyID b1 = dGeomGetBody(r.geom.g1), b2 = dGeomGetBody(r.geom.g2);
         dContact c;
-        c.surface = surface(geom_material_[r.lo], geom_material_[r.hi]);
+        c.surface = surface(material_of(r.lo), material_of(r.hi));
         c.geom = r.geom;
         c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
         dJointID j = dJointCreateContact(world_, contacts_, &c);

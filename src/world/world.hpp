@@ -1,26 +1,46 @@
-// World: the ODE world, one space, bodies, geoms and joints built from a Scene,
-// with a stable global id for every body and geom (geom id = body id for bodies;
-// statics and planes follow). ODE's dRand is seeded from the scene at creation.
-// Dynamic geoms are category 1, static geoms category 2 and collide only with
-// dynamic ones, so static-static pairs are never tested.
-// Trade-off: one geom per body keeps ids trivial; compound bodies would need a
-// geom -> body table (geom_body() already exists for that).
+// World: the ODE world, one space, and the bodies this process holds, each
+// with its global id (gid: [[bodies]] first, then the catoms) apart from its
+// local storage index. Identity and every order that a result depends on use
+// gids; storage uses local indices (dense, in no particular order), and the
+// gid <-> local maps follow bodies as they are added and removed. A body is
+// owned here or a ghost (a read-only copy of a body owned by another
+// process). Geom ids equal body gids; static geoms and planes follow all
+// bodies (ids body_count .. of the whole scene), and every process holds all
+// of them. ODE's dRand is seeded from the scene at creation.
+// Collision filtering by category bits: owned geoms are category 1, static
+// geoms category 2 (collide only with owned), ghost geoms category 4
+// (collide only with owned), so static-static, ghost-ghost and ghost-static
+// pairs are never tested.
+// Trade-off: one geom per body keeps ids trivial; bodies are removed by
+// moving the last one into the gap, so local indices change on removal and
+// nothing may keep a local index across a step.
 #pragma once
 #include <ode/ode.h>
 
+#include <array>
+#include <cstdint>
 #include <vector>
 
 #include "collide/collide.hpp"
 #include "scene/scene.hpp"
+#include "util/id_map.hpp"
 
 namespace parode {
 
 // ODE's global initialisation, once per process.
 void ensure_ode_initialised();
 
+// The kinematic state of a body as it travels between processes. `q` is the
+// quaternion last handed to ODE: ODE normalises what it is given, so handing
+// it the same input reproduces the body bit for bit.
+struct BodyState {
+    double x[3], q[4], v[3], w[3];
+};
+
 class World {
 public:
-    World(const Scene& scene, SpaceKind space_kind);
+    // Builds every body of the scene (local index = gid), or only `gids`.
+    World(const Scene& scene, SpaceKind space_kind, const std::vector<std::uint32_t>* gids = nullptr);
     ~World();
     World(const World&) = delete;
     World& operator=(const World&) = delete;
@@ -30,14 +50,41 @@ public:
     dSpaceID space() const { return space_; }
     dJointGroupID contact_group() const { return contacts_; }
 
+    // Local bodies: owned ones and ghosts.
     std::size_t body_count() const { return bodies_.size(); }
-    dBodyID body(std::size_t i) const { return bodies_[i]; }
+    std::size_t owned_count() const { return owned_; }
+    dBodyID body(std::size_t local) const { return bodies_[local]; }
     const std::vector<dBodyID>& bodies() const { return bodies_; }
-    std::size_t geom_count() const { return geoms_.size(); }
-    dGeomID geom(std::size_t i) const { return geoms_[i]; }
-    const std::vector<dGeomID>& geoms() const { return geoms_; }  // every geom of space(), by id
-    int geom_material(std::size_t i) const { return geom_material_[i]; }
-    dJointID joint(std::size_t i) const { return joints_[i]; }
+    std::uint32_t gid(std::size_t local) const { return gids_[local]; }
+    bool ghost(std::size_t local) const { return ghost_[local] != 0; }
+    // Local index of a gid, or IdMap::kNone when it is not held here.
+    std::uint32_t local_of(std::uint32_t gid) const { return map_.find(gid); }
+    // Local index of the body of a body geom.
+    static std::size_t local_of_geom(dGeomID g) {
+        return reinterpret_cast<std::uintptr_t>(dBodyGetData(dGeomGetBody(g)));
+    }
+    // Bodies of the whole scene; geom ids below this are bodies.
+    std::size_t global_body_count() const { return global_; }
+    bool is_body_id(std::uint32_t id) const { return id < global_; }
+    // Initial position of a local body (it travels with the body).
+    const Vec3& origin(std::size_t local) const { return origin_[local]; }
+    // Changes whenever a body is added or removed (local indices moved).
+    std::uint64_t generation() const { return generation_; }
+
+    // Every geom of space(): local body geoms in local order, then statics.
+    const std::vector<dGeomID>& geoms() const { return geoms_; }
+    int material_of(std::uint32_t geom_id) const;
+
+    // A new body `gid` built from the scene (its initial state unless `state`
+    // is given); returns its local index.
+    std::size_t add_body(std::uint32_t gid, bool ghost, const BodyState* state = nullptr, const Vec3* origin = nullptr);
+    // Destroys a local body; the last local body moves into its index.
+    void remove_body(std::size_t local);
+    void set_ghost(std::size_t local, bool ghost);
+    BodyState state(std::size_t local) const;
+    void set_state(std::size_t local, const BodyState& s);
+    // Position and quaternion input, as the project's integrator sets them.
+    void set_pose(std::size_t local, const double x[3], const double q[4]);
 
     // Surface parameters for a contact between two materials (mixed once, cached).
     const dSurfaceParameters& surface(int a, int b) const;
@@ -47,21 +94,29 @@ public:
     // Create contact joints serially, in the buffer's (canonical) order, except
     // the ignored ones.
     void create_contact_joints(const std::vector<ContactRecord>& contacts);
+    dJointID joint(std::size_t i) const { return joints_[i]; }
 
 private:
-    void build_bodies();
     void build_statics();
     void build_joints();
     void build_surfaces();
     dGeomID make_geom(const Shape& s);
 
     const Scene& scene_;
+    std::size_t global_ = 0;
     dWorldID world_ = nullptr;
     dSpaceID space_ = nullptr;
     dJointGroupID contacts_ = nullptr;
     std::vector<dBodyID> bodies_;
+    std::vector<std::uint32_t> gids_;
+    std::vector<std::uint8_t> ghost_;
+    std::vector<std::array<double, 4>> q_in_;
+    std::vector<Vec3> origin_;
+    std::size_t owned_ = 0;
+    IdMap map_;
+    std::uint64_t generation_ = 0;
     std::vector<dGeomID> geoms_;
-    std::vector<int> geom_material_;
+    std::vector<int> static_material_;
     std::vector<dJointID> joints_;
     std::vector<dSurfaceParameters> surfaces_;  // materials x materials
 };
