@@ -1,5 +1,6 @@
 // Command-line helpers (see cli_common.hpp).
 #include "cli_common.hpp"
+#include "processes.hpp"
 
 #include <cmath>
 #include <cstdlib>
@@ -34,26 +35,41 @@ std::string solver_list() {
     return out;
 }
 
+namespace {
+
+// Every process meets a collective failure at the same point: the root
+// reports it and all return its code. Any other failure may be this
+// process's alone: it reports and ends every process.
+int fail(int code, const std::string& message, bool collective) {
+    const Processes* procs = Processes::current();
+    const bool many = procs && procs->size() > 1;
+    if (!many || !collective || procs->root()) {
+        std::cerr << "parode: " << (many && !collective ? "rank " + std::to_string(procs->rank()) + ": " : "") << message
+                  << "\n";
+    }
+    if (many && !collective) procs->abort(code);
+    return code;
+}
+
+}  // namespace
+
 int guarded(const std::function<int()>& action) {
     try {
         return action ? action() : 0;
     } catch (const SceneError& e) {
-        std::cerr << "parode: scene error: " << e.what() << "\n";
-        return kExitScene;
+        return fail(kExitScene, std::string("scene error: ") + e.what(), true);
     } catch (const SimulationError& e) {
-        std::cerr << "parode: simulation failed: " << e.what() << "\n";
-        return kExitSimulation;
+        return fail(kExitSimulation, std::string("simulation failed: ") + e.what(), true);
     } catch (const std::invalid_argument& e) {
-        std::cerr << "parode: " << e.what() << "\n";
-        return kExitUsage;
+        return fail(kExitUsage, e.what(), true);
     } catch (const std::exception& e) {
-        std::cerr << "parode: " << e.what() << "\n";
-        return kExitOutput;
+        return fail(kExitOutput, e.what(), false);
     }
 }
 
-int checks_exit_code(const nlohmann::json& report) {
+int checks_exit_code(const nlohmann::json& report, bool print) {
     if (!report.contains("checks") || report["checks"]["passed"].get<bool>()) return 0;
+    if (!print) return kExitChecks;
     std::cerr << "parode: checks failed:";
     for (const auto& i : report["checks"]["items"]) {
         if (i["passed"].get<bool>()) continue;

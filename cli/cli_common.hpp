@@ -23,8 +23,9 @@ int resolve_threads(int requested);  // 0 -> OMP_NUM_THREADS or 1
 std::string backend_list();
 std::string solver_list();
 int guarded(const std::function<int()>& action);
-// kExitChecks when the report's [checks] verdict is a failure (printed), else 0.
-int checks_exit_code(const nlohmann::json& report);
+// kExitChecks when the report's [checks] verdict is a failure (printed when
+// `print`), else 0.
+int checks_exit_code(const nlohmann::json& report, bool print = true);
 // The `error` block of `run` against `reference_path`: a trajectory file, or a
 // run report (final observables only). Throws std::runtime_error naming the file.
 nlohmann::json compare_with_reference(const parode::Trajectory& run, const std::string& reference_path,

@@ -1,7 +1,8 @@
 // The `parode` command line: `parode run SCENE ...` (and further subcommands).
 // Exit codes: 0 success, 1 simulation failed (NaN, runaway), 2 bad command
 // line, 3 bad scene file, 4 cannot write an output file, 5 a [checks]
-// criterion of the scene failed.
+// criterion of the scene failed. Under mpirun every process runs this; the
+// root prints and writes (processes.hpp).
 // Trade-off: CLI11 handles parsing and help; each subcommand is a function of
 // its own options so new ones do not grow main().
 #include <CLI/CLI.hpp>
@@ -13,6 +14,7 @@
 #include <iostream>
 
 #include "cli_common.hpp"
+#include "processes.hpp"
 #include "io/error_metrics.hpp"
 #include "run/pipeline.hpp"
 #include "register.hpp"
@@ -74,6 +76,7 @@ void add_error(const RunArgs& a, const Pipeline& pipeline, nlohmann::json& repor
 }
 
 int run_command(const RunArgs& a) {
+    const Processes& procs = *Processes::current();
     const Scene scene = load_scene(a.scene, a.sets);
     const int steps = step_count(a, scene);
     RunOptions opt;
@@ -85,16 +88,19 @@ int run_command(const RunArgs& a) {
     opt.snapshot_every = a.snapshot.empty() ? 0 : std::max(1, a.snapshot_every);
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
+    const std::unique_ptr<Domain> domain = procs.make_domain(scene);
+    opt.domain = domain.get();
     Pipeline pipeline(scene, opt);
-    Progress progress(steps, !a.quiet && isatty(STDERR_FILENO));
+    Progress progress(steps, procs.root() && !a.quiet && isatty(STDERR_FILENO));
     const auto t0 = std::chrono::steady_clock::now();
     for (int s = 0; s < steps; ++s) {
         pipeline.step();
         progress.update(s + 1);
     }
     pipeline.finish();
-    RunInfo info{a.scene, opt.threads, 1, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+    RunInfo info{a.scene, opt.threads, procs.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
     nlohmann::json report = make_report(scene, pipeline, info);
+    if (!procs.root()) return checks_exit_code(report, false);
     add_error(a, pipeline, report);
     if (!a.quiet) print_summary(std::cout, report);
     if (!a.quiet && report.contains("error")) print_error_summary(std::cout, report["error"]);
@@ -130,6 +136,13 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
 
 int main(int argc, char** argv) {
     using namespace parode::cli;
+    std::unique_ptr<Processes> procs;
+    try {
+        procs = std::make_unique<Processes>(argc, argv);
+    } catch (const std::exception& e) {
+        std::cerr << "parode: " << e.what() << "\n";
+        return kExitUsage;
+    }
     parode::omp::register_backends();
     CLI::App app{"parode: parallel rigid-body simulation on ODE (see README.md)"};
     app.require_subcommand(1);

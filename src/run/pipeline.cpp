@@ -85,7 +85,10 @@ void Pipeline::timed(Stage s, F&& f) {
 
 void Pipeline::step() {
     timed(Stage::Migrate, [this] { run_migrate(); });
-    timed(Stage::Exchange, [this] { domain_->exchange_states(*world_); });
+    timed(Stage::Exchange, [this] {
+        domain_->exchange_states(*world_);
+        if (invariants_every_ > 0 && steps_ % invariants_every_ == 0) domain_->check_invariants(*world_, steps_);
+    });
     timed(Stage::Forces, [this] { run_forces(); });
     if (stage(Stage::Forces).enabled) timed(Stage::Exchange, [this] { domain_->exchange_forces(*world_); });
     if (contacts_of_ != world_->generation()) timed(Stage::Collide, [this] { run_collide(); });
@@ -102,10 +105,7 @@ void Pipeline::finish() {
     if (last_observed_ != steps_) timed(Stage::Observe, [this] { run_observe(); });
 }
 
-void Pipeline::run_migrate() {
-    domain_->migrate(*world_, solver_->warm_impulses(), steps_);
-    if (invariants_every_ > 0 && steps_ % invariants_every_ == 0) domain_->check_invariants(*world_, steps_);
-}
+void Pipeline::run_migrate() { domain_->migrate(*world_, solver_->warm_impulses(), steps_); }
 
 void Pipeline::run_forces() {
     if (magnets_) {

@@ -164,6 +164,12 @@ struct CatomBlock {
     Vec3 position(std::size_t n) const;
 };
 
+// [parallel]: how a distributed run keeps its load balanced.
+struct ParallelSpec {
+    double rebalance_threshold = 1.25;  // repartition when max load / mean load exceeds this
+    int rebalance_every = 10;           // steps between load measurements
+};
+
 struct Scene {
     std::string name;
     std::string source;  // file it came from
@@ -184,6 +190,7 @@ struct Scene {
     ControllerSpec controller;
     GuardSpec guard;
     CheckSpec checks;
+    ParallelSpec parallel;
 
     // Every body, [[bodies]] and generated catoms: global ids 0 .. body_count() - 1.
     std::size_t body_count() const { return bodies.size() + catoms.count; }

@@ -249,11 +249,19 @@ void read_controller(const Node& root, Scene& sc) {
     c.drive_fmax = t.number("drive_fmax", c.drive_fmax, 0.0);
 }
 
+void read_parallel(const Node& root, ParallelSpec& p) {
+    if (!root.has("parallel")) return;
+    const Node t = root.at("parallel");
+    t.expect_keys({"rebalance_threshold", "rebalance_every"});
+    p.rebalance_threshold = t.number("rebalance_threshold", p.rebalance_threshold, 1.0);
+    p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
+}
+
 Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides) {
     for (const auto& o : overrides) apply_override(data, o);
     const Node root(data, "");
     root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
-                      "catoms", "magnets", "controller", "guard", "checks"});
+                      "catoms", "magnets", "controller", "guard", "checks", "parallel"});
     Scene sc;
     sc.source = name;
     read_scene_table(root, sc);
@@ -268,6 +276,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     read_magnets(root, sc);
     if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     read_guard(root, sc.guard);
+    read_parallel(root, sc.parallel);
     read_checks(root, sc);
     return sc;
 }

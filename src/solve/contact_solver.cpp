@@ -56,24 +56,15 @@ void jacobian_row(const double* dir, const double* c1, const double* c2, double*
 
 }  // namespace
 
-ContactSolver::ContactSolver(const Scene& scene) : scene_(scene) {
-    const double rmax = scene.max_bounding_radius();
-    // A body's contacts are owned by cells within 2 r_max of it: with cells of
-    // 4 r_max they span at most two cells per axis, of different parity.
-    cell_size_ = 4 * rmax * (1 + 1e-9);
-}
+// A body's contacts are owned by cells within 2 r_max of it: with cells of
+// 4 r_max they span at most two cells per axis, of different parity.
+ContactSolver::ContactSolver(const Scene& scene) : scene_(scene), cells_(scene) {}
 
 void ContactSolver::cell_key(std::size_t k) {
-    constexpr std::int64_t kBias = 1 << 20;
     const ContactRecord& r = contacts_->items()[k];
     dGeomID owner = world_->is_body_id(r.lo) ? r.geom.g1 : r.geom.g2;  // a dynamic body
-    const dReal* x = dBodyGetPosition(dGeomGetBody(owner));
-    std::uint64_t q[3], colour = 0;
-    for (int a = 0; a < 3; ++a) {
-        q[a] = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(x[a] / cell_size_)) + kBias) & 0x1FFFFF;
-        colour |= (q[a] & 1) << a;
-    }
-    keys_[k] = {colour << 61 | q[2] << 40 | q[1] << 20 | q[0], static_cast<std::uint32_t>(k)};
+    const std::uint64_t cell = cells_.key(dBodyGetPosition(dGeomGetBody(owner)));
+    keys_[k] = {static_cast<std::uint64_t>(CellSpace::colour(cell)) << 61 | cell, static_cast<std::uint32_t>(k)};
 }
 
 void ContactSolver::cell_keys() {

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "collide/contacts.hpp"
+#include "domain/cells.hpp"
 #include "solve/solver.hpp"
 #include "world/world.hpp"
 
@@ -62,7 +63,7 @@ public:
     std::size_t blocks() const { return blocks_.size(); }
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
-    double cell_size() const { return cell_size_; }
+    const CellSpace& cells() const { return cells_; }
 
 protected:
     struct Body {
@@ -97,7 +98,7 @@ protected:
     virtual void integrate();
     virtual void remember();
 
-    // Contact k's cell (colour in the top 3 bits, then the cell coordinates);
+    // Contact k's cell (colour in the top 3 bits, then the CellSpace key);
     // (cell, contact) pairs are unique, so their sorted order is too.
     struct CellKey {
         std::uint64_t cell;
@@ -140,7 +141,7 @@ private:
     std::vector<Block> blocks_;
     std::vector<std::size_t> colour_start_;     // colour -> first cell
     std::vector<std::size_t> cell_start_;       // cell -> first block slot
-    double cell_size_ = 1.0;
+    CellSpace cells_;
     std::vector<WarmImpulse> previous_;          // last step's impulses, canonical order
     std::vector<std::int64_t> warm_;             // contact -> index into previous_, or -1
     CorrectionExchange* exchange_ = nullptr;

@@ -162,6 +162,11 @@ void World::set_ghost(std::size_t local, bool ghost) {
     if ((ghost_[local] != 0) != ghost) {
         if (ghost) --owned_;
         else ++owned_;
+        ++generation_;  // who owns what changed: stage plans built on the old split are stale
+        if (!ghost) {   // a ghost's forces were copies of its owner's; an owned body starts with none
+            dBodySetForce(bodies_[local], 0, 0, 0);
+            dBodySetTorque(bodies_[local], 0, 0, 0);
+        }
     }
     ghost_[local] = ghost ? 1 : 0;
     dGeomID g = geoms_[local];

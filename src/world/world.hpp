@@ -68,7 +68,8 @@ public:
     bool is_body_id(std::uint32_t id) const { return id < global_; }
     // Initial position of a local body (it travels with the body).
     const Vec3& origin(std::size_t local) const { return origin_[local]; }
-    // Changes whenever a body is added or removed (local indices moved).
+    // Changes whenever a body is added, removed (local indices moved) or
+    // changes between owned and ghost.
     std::uint64_t generation() const { return generation_; }
 
     // Every geom of space(): local body geoms in local order, then statics.
@@ -81,6 +82,7 @@ public:
     // Destroys a local body; the last local body moves into its index.
     void remove_body(std::size_t local);
     void set_ghost(std::size_t local, bool ghost);
+    void set_origin(std::size_t local, const Vec3& origin) { origin_[local] = origin; }
     BodyState state(std::size_t local) const;
     void set_state(std::size_t local, const BodyState& s);
     // Position and quaternion input, as the project's integrator sets them.

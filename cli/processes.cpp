@@ -1,0 +1,83 @@
+// MPI start-up and the choice of domain (see processes.hpp).
+#include "processes.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <stdexcept>
+
+#ifdef PARODE_HAVE_MPI
+#include "comm.hpp"
+#include "mpi_domain.hpp"
+#endif
+
+namespace parode::cli {
+namespace {
+
+Processes* g_current = nullptr;
+
+// Copies started by a launcher when MPI is not built in.
+[[maybe_unused]] int launcher_size() {
+    for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS"}) {
+        if (const char* s = std::getenv(v)) return std::max(1, std::atoi(s));
+    }
+    return 1;
+}
+
+}  // namespace
+
+#ifdef PARODE_HAVE_MPI
+struct Processes::Mpi {
+    mpi::Session session;
+    mpi::Comm comm;
+    Mpi(int& argc, char**& argv) : session(argc, argv) {}
+};
+#else
+struct Processes::Mpi {};
+#endif
+
+Processes::Processes(int& argc, char**& argv) {
+    g_current = this;
+#ifdef PARODE_HAVE_MPI
+    if (mpi::launched()) {
+        mpi_ = std::make_unique<Mpi>(argc, argv);
+        rank_ = mpi_->comm.rank();
+        size_ = mpi_->comm.size();
+    }
+#else
+    (void)argc;
+    (void)argv;
+    if (launcher_size() > 1) {
+        throw std::invalid_argument("this parode was built without MPI, and " + std::to_string(launcher_size()) +
+                                    " copies of it would each simulate the whole scene; build it with the ci, mpi "
+                                    "or hybrid preset, or run it without a launcher");
+    }
+#endif
+}
+
+Processes::~Processes() { g_current = nullptr; }
+
+Processes* Processes::current() { return g_current; }
+
+std::unique_ptr<Domain> Processes::make_domain([[maybe_unused]] const Scene& scene) const {
+#ifdef PARODE_HAVE_MPI
+    if (size_ > 1) return std::make_unique<mpi::MpiDomain>(scene, mpi_->comm);
+#endif
+    return std::make_unique<Domain>();
+}
+
+void Processes::abort(int code) const {
+#ifdef PARODE_HAVE_MPI
+    if (mpi_) mpi_->comm.abort(code);
+#endif
+    std::exit(code);
+}
+
+std::string Processes::describe() const {
+#ifdef PARODE_HAVE_MPI
+    return mpi_ ? std::to_string(size_) + " MPI process(es)" : "one process (MPI built in, not launched)";
+#else
+    return "one process (built without MPI)";
+#endif
+}
+
+}  // namespace parode::cli

@@ -1,0 +1,74 @@
+// Cell ownership (see cell_map.hpp).
+#include "cell_map.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "domain/cells.hpp"
+#include "util/split_mix.hpp"
+
+namespace parode::mpi {
+
+void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks) {
+    keys_ = std::move(keys);
+    owners_ = std::move(owners);
+    ranks_ = ranks;
+    owner_cache_.clear();
+    holder_cache_.clear();
+}
+
+int CellMap::mapped_owner(std::uint64_t key) const {
+    const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
+    if (it == keys_.end() || *it != key) return -1;
+    return owners_[static_cast<std::size_t>(it - keys_.begin())];
+}
+
+// Shell by shell, the mapped cells at Chebyshev distance d; the smallest key
+// of the first shell that has any decides.
+int CellMap::nearest_owner(std::uint64_t key) const {
+    for (int d = 1; d <= kReach; ++d) {
+        std::uint64_t best = ~0ULL;
+        int who = -1;
+        for (int x = -d; x <= d; ++x) {
+            for (int y = -d; y <= d; ++y) {
+                for (int z = -d; z <= d; ++z) {
+                    if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != d) continue;
+                    const std::uint64_t k = CellSpace::neighbour(key, x, y, z);
+                    const int o = mapped_owner(k);
+                    if (o >= 0 && k < best) {
+                        best = k;
+                        who = o;
+                    }
+                }
+            }
+        }
+        if (who >= 0) return who;
+    }
+    return static_cast<int>(SplitMix64::mix(key) % static_cast<std::uint64_t>(ranks_));
+}
+
+int CellMap::owner(std::uint64_t key) const {
+    const int o = mapped_owner(key);
+    if (o >= 0) return o;
+    const auto it = owner_cache_.find(key);
+    if (it != owner_cache_.end()) return it->second;
+    const int n = nearest_owner(key);
+    owner_cache_.emplace(key, n);
+    return n;
+}
+
+const std::vector<int>& CellMap::holders(std::uint64_t key) const {
+    const auto it = holder_cache_.find(key);
+    if (it != holder_cache_.end()) return it->second;
+    std::vector<int> h;
+    for (int x = -1; x <= 1; ++x) {
+        for (int y = -1; y <= 1; ++y) {
+            for (int z = -1; z <= 1; ++z) h.push_back(owner(CellSpace::neighbour(key, x, y, z)));
+        }
+    }
+    std::sort(h.begin(), h.end());
+    h.erase(std::unique(h.begin(), h.end()), h.end());
+    return holder_cache_.emplace(key, std::move(h)).first->second;
+}
+
+}  // namespace parode::mpi

@@ -1,0 +1,201 @@
+// MPI calls of the distributed layer (see comm.hpp).
+#include "comm.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace parode::mpi {
+namespace {
+
+// Adds the wall time of its scope to a counter.
+class Clock {
+public:
+    explicit Clock(CommStats& s) : s_(s), t0_(std::chrono::steady_clock::now()) {}
+    ~Clock() { s_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+    Clock(const Clock&) = delete;
+    Clock& operator=(const Clock&) = delete;
+
+private:
+    CommStats& s_;
+    std::chrono::steady_clock::time_point t0_;
+};
+
+void check(int rc, const char* what) {
+    if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI error in ") + what);
+}
+
+std::vector<int> displacements(const std::vector<int>& counts) {
+    std::vector<int> d(counts.size(), 0);
+    for (std::size_t i = 1; i < counts.size(); ++i) d[i] = d[i - 1] + counts[i - 1];
+    return d;
+}
+
+std::vector<Bytes> split(const Bytes& all, const std::vector<int>& counts) {
+    std::vector<Bytes> out(counts.size());
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+        out[i].assign(all.begin() + static_cast<long>(at), all.begin() + static_cast<long>(at + static_cast<std::size_t>(counts[i])));
+        at += static_cast<std::size_t>(counts[i]);
+    }
+    return out;
+}
+
+Bytes receive_probed(MPI_Message& msg, MPI_Status& st) {
+    int n = 0;
+    MPI_Get_count(&st, MPI_BYTE, &n);
+    Bytes b(static_cast<std::size_t>(n));
+    check(MPI_Mrecv(b.data(), n, MPI_BYTE, &msg, MPI_STATUS_IGNORE), "MPI_Mrecv");
+    return b;
+}
+
+}  // namespace
+
+bool launched() {
+    for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALNRANKS"}) {
+        if (std::getenv(v)) return true;
+    }
+    return false;
+}
+
+Session::Session(int& argc, char**& argv) {
+    int provided = 0;
+    check(MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
+    if (provided < MPI_THREAD_FUNNELED) throw std::runtime_error("the MPI library does not support MPI_THREAD_FUNNELED");
+}
+
+Session::~Session() { MPI_Finalize(); }
+
+Comm::Comm() {
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &size_);
+}
+
+void Comm::sum(std::int64_t* v, int n) const {
+    Clock c(stats_);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+}
+
+void Comm::sum_wrapping(std::uint64_t* v, int n) const {
+    Clock c(stats_);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+}
+
+void Comm::max(double* v, int n) const {
+    Clock c(stats_);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+}
+
+std::vector<Bytes> Comm::all_gather(const Bytes& mine) const {
+    Clock c(stats_);
+    int n = static_cast<int>(mine.size());
+    std::vector<int> counts(static_cast<std::size_t>(size_));
+    check(MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+    const std::vector<int> disp = displacements(counts);
+    Bytes all(static_cast<std::size_t>(disp.back() + counts.back()));
+    check(MPI_Allgatherv(mine.data(), n, MPI_BYTE, all.data(), counts.data(), disp.data(), MPI_BYTE, MPI_COMM_WORLD),
+          "MPI_Allgatherv");
+    return split(all, counts);
+}
+
+std::vector<Bytes> Comm::gather(const Bytes& mine, int root) const {
+    Clock c(stats_);
+    int n = static_cast<int>(mine.size());
+    std::vector<int> counts(static_cast<std::size_t>(size_));
+    check(MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, root, MPI_COMM_WORLD), "MPI_Gather");
+    const std::vector<int> disp = displacements(counts);
+    Bytes all(rank_ == root ? static_cast<std::size_t>(disp.back() + counts.back()) : 0);
+    check(MPI_Gatherv(mine.data(), n, MPI_BYTE, all.data(), counts.data(), disp.data(), MPI_BYTE, root, MPI_COMM_WORLD),
+          "MPI_Gatherv");
+    if (rank_ != root) return {};
+    return split(all, counts);
+}
+
+void Comm::broadcast(Bytes& bytes, int root) const {
+    Clock c(stats_);
+    long n = static_cast<long>(bytes.size());
+    check(MPI_Bcast(&n, 1, MPI_LONG, root, MPI_COMM_WORLD), "MPI_Bcast");
+    bytes.resize(static_cast<std::size_t>(n));
+    check(MPI_Bcast(bytes.data(), static_cast<int>(n), MPI_BYTE, root, MPI_COMM_WORLD), "MPI_Bcast");
+}
+
+// NBX (Hoefler, Siebert, Lumsdaine 2010): synchronous sends complete only
+// when matched, so once all of this process's sends are done it enters a
+// non-blocking barrier; when the barrier completes, every message of the
+// round has been received somewhere.
+std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int tag) const {
+    Clock c(stats_);
+    std::vector<MPI_Request> sends;
+    for (const auto& [dest, bytes] : out) {
+        sends.emplace_back();
+        check(MPI_Issend(bytes.data(), static_cast<int>(bytes.size()), MPI_BYTE, dest, tag, MPI_COMM_WORLD, &sends.back()),
+              "MPI_Issend");
+        stats_.bytes += bytes.size();
+        ++stats_.messages;
+    }
+    std::vector<std::pair<int, Bytes>> in;
+    MPI_Request barrier = MPI_REQUEST_NULL;
+    for (bool done = false; !done;) {
+        int flag = 0;
+        MPI_Message msg;
+        MPI_Status st;
+        check(MPI_Improbe(MPI_ANY_SOURCE, tag, MPI_COMM_WORLD, &flag, &msg, &st), "MPI_Improbe");
+        if (flag) in.emplace_back(st.MPI_SOURCE, receive_probed(msg, st));
+        if (barrier == MPI_REQUEST_NULL) {
+            int sent = 0;
+            check(MPI_Testall(static_cast<int>(sends.size()), sends.data(), &sent, MPI_STATUSES_IGNORE), "MPI_Testall");
+            if (sent) check(MPI_Ibarrier(MPI_COMM_WORLD, &barrier), "MPI_Ibarrier");
+        } else {
+            int fin = 0;
+            check(MPI_Test(&barrier, &fin, MPI_STATUS_IGNORE), "MPI_Test");
+            done = fin != 0;
+        }
+    }
+    std::sort(in.begin(), in.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    return in;
+}
+
+void Comm::exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
+                    std::vector<Bytes>& in, int tag) const {
+    Clock c(stats_);
+    std::vector<MPI_Request> sends(to.size());
+    for (std::size_t i = 0; i < to.size(); ++i) {
+        check(MPI_Isend(out[i].data(), static_cast<int>(out[i].size()), MPI_BYTE, to[i], tag, MPI_COMM_WORLD, &sends[i]),
+              "MPI_Isend");
+        stats_.bytes += out[i].size();
+        ++stats_.messages;
+    }
+    in.resize(from.size());
+    for (std::size_t j = 0; j < from.size(); ++j) {
+        MPI_Message msg;
+        MPI_Status st;
+        check(MPI_Mprobe(from[j], tag, MPI_COMM_WORLD, &msg, &st), "MPI_Mprobe");
+        in[j] = receive_probed(msg, st);
+    }
+    check(MPI_Waitall(static_cast<int>(sends.size()), sends.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+}
+
+void Comm::abort(int code) const { MPI_Abort(MPI_COMM_WORLD, code); std::abort(); }
+
+double Comm::ping_pong_latency(int rounds) const {
+    char byte = 0;
+    MPI_Barrier(MPI_COMM_WORLD);
+    const double t0 = MPI_Wtime();
+    for (int r = 0; r < rounds && size_ > 1; ++r) {
+        if (rank_ == 0) {
+            MPI_Send(&byte, 1, MPI_BYTE, 1, 99, MPI_COMM_WORLD);
+            MPI_Recv(&byte, 1, MPI_BYTE, 1, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        } else if (rank_ == 1) {
+            MPI_Recv(&byte, 1, MPI_BYTE, 0, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Send(&byte, 1, MPI_BYTE, 0, 99, MPI_COMM_WORLD);
+        }
+    }
+    double t = (MPI_Wtime() - t0) / (2.0 * rounds);
+    MPI_Bcast(&t, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    return t;
+}
+
+}  // namespace parode::mpi

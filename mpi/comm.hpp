@@ -1,0 +1,74 @@
+// The only interface to MPI: every call the distributed layer makes goes
+// through Comm (comm.cpp is the only file that includes <mpi.h>), which also
+// counts what it costs: seconds inside MPI, bytes and messages sent.
+// Patterns: collectives (sums, maxima, gathers, broadcast), a sparse exchange
+// with partners that the receiver does not know in advance (the NBX
+// algorithm: synchronous sends, then a non-blocking barrier once they are
+// all matched), and a neighbour exchange with known partners.
+// Trade-off: byte vectors everywhere (one copy more than derived datatypes)
+// keep the rest of the layer free of MPI types and easy to test.
+#pragma once
+#include <cstdint>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace parode::mpi {
+
+using Bytes = std::vector<char>;
+
+// True when this process was started by an MPI launcher (mpirun, mpiexec,
+// srun): then main() initialises MPI, otherwise it never touches it.
+bool launched();
+
+// MPI_Init_thread (MPI_THREAD_FUNNELED: only the main thread calls MPI,
+// OpenMP threads do not) and MPI_Finalize.
+class Session {
+public:
+    Session(int& argc, char**& argv);
+    ~Session();
+    Session(const Session&) = delete;
+    Session& operator=(const Session&) = delete;
+};
+
+struct CommStats {
+    double seconds = 0;         // inside MPI calls, waiting included
+    std::uint64_t bytes = 0;    // sent
+    std::uint64_t messages = 0; // sent
+};
+
+class Comm {
+public:
+    Comm();  // MPI_COMM_WORLD
+    int rank() const { return rank_; }
+    int size() const { return size_; }
+
+    void sum(std::int64_t* v, int n) const;
+    void sum_wrapping(std::uint64_t* v, int n) const;
+    void max(double* v, int n) const;
+    std::vector<Bytes> all_gather(const Bytes& mine) const;
+    std::vector<Bytes> gather(const Bytes& mine, int root) const;
+    void broadcast(Bytes& bytes, int root) const;
+
+    // Sends out[dest] to each dest; returns what every other process sent
+    // here, sorted by source rank. Partners need not be known in advance.
+    std::vector<std::pair<int, Bytes>> sparse_exchange(const std::map<int, Bytes>& out, int tag) const;
+    // Sends out[i] to partners[i] and receives one message (any size) from
+    // each of `from`; in[j] is what from[j] sent.
+    void exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
+                  std::vector<Bytes>& in, int tag) const;
+
+    [[noreturn]] void abort(int code) const;
+    // Open MPI's point-to-point latency between two processes, measured by a
+    // ping-pong of `rounds` small messages (collective; seconds one way).
+    double ping_pong_latency(int rounds) const;
+
+    const CommStats& stats() const { return stats_; }
+
+private:
+    int rank_ = 0, size_ = 1;
+    mutable CommStats stats_;
+};
+
+}  // namespace parode::mpi

@@ -1,0 +1,440 @@
+// The distributed domain (see mpi_domain.hpp).
+#include "mpi_domain.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <sstream>
+
+#include "partition.hpp"
+#include "run/diagnostics.hpp"
+#include "run/pipeline.hpp"
+#include "scene/toml_reader.hpp"
+#include "util/split_mix.hpp"
+
+namespace parode::mpi {
+namespace {
+
+enum Tag { kTagMigrate = 11, kTagGhost = 12, kTagForce = 13, kTagCorrection = 14, kTagCheck = 15 };
+
+template <class T>
+void put(Bytes& b, const T& v) {
+    const std::size_t at = b.size();
+    b.resize(at + sizeof(T));
+    std::memcpy(b.data() + at, &v, sizeof(T));
+}
+
+template <class T>
+T take(const Bytes& b, std::size_t& at) {
+    T v;
+    std::memcpy(&v, b.data() + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+}
+
+Vec3 position(const World& w, std::size_t i) {
+    const dReal* x = dBodyGetPosition(w.body(i));
+    return {x[0], x[1], x[2]};
+}
+
+// Removes the warm-start impulses of `gid` from `warm` (sorted by lo) into `out`.
+void take_impulses(std::vector<WarmImpulse>& warm, std::uint32_t gid, std::vector<WarmImpulse>& out) {
+    auto lo = std::lower_bound(warm.begin(), warm.end(), gid, [](const WarmImpulse& m, std::uint32_t g) { return m.lo < g; });
+    auto hi = lo;
+    while (hi != warm.end() && hi->lo == gid) ++hi;
+    out.assign(lo, hi);
+    warm.erase(lo, hi);
+}
+
+void sort_impulses(std::vector<WarmImpulse>& warm) {
+    std::sort(warm.begin(), warm.end(), [](const WarmImpulse& a, const WarmImpulse& b) {
+        return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
+    });
+}
+
+}  // namespace
+
+MpiDomain::MpiDomain(const Scene& scene, const Comm& comm) : scene_(scene), comm_(comm), cells_(scene) {
+    nbr_index_.assign(static_cast<std::size_t>(comm.size()), -1);
+}
+
+void MpiDomain::check_scene(const Scene& sc, const std::string& /*collide*/, const std::string& solver) const {
+    const std::string why = sc.source + ": a run on " + std::to_string(ranks()) + " MPI processes needs ";
+    const std::string one = "; run it as one process (without mpirun), with threads";
+    if (!sc.joints.empty()) throw SceneError(why + "a contact-only scene, and this one has joints" + one);
+    if (sc.controller.enabled) throw SceneError(why + "a contact-only scene, and this one has a [controller]" + one);
+    if (sc.solver.auto_disable) throw SceneError(why + "solver.auto_disable off (sleeping bodies need ODE's islands)" + one);
+    if (solver != "parallel" && solver != "pgs") {
+        throw std::invalid_argument("--solver " + solver + " runs ODE's stepper, which needs every body in one process; "
+                                    "use --solver parallel (parode's contact solver: the same result for any number of processes)");
+    }
+    if (sc.any_magnets()) {
+        const double rmax = sc.max_bounding_radius(), reach = 2 * rmax + sc.magnets.cutoff;
+        if (reach > cells_.edge()) {
+            throw SceneError(sc.source + ": magnets.cutoff = " + std::to_string(sc.magnets.cutoff) +
+                             " m reaches past the ghost halo of a distributed run (one cell of " +
+                             std::to_string(cells_.edge()) + " m): it must be at most 2 r_max = " +
+                             std::to_string(2 * rmax) + " m" + one);
+        }
+    }
+}
+
+std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) const {
+    const std::uint64_t n = scene.body_count(), r = static_cast<std::uint64_t>(rank()), p = static_cast<std::uint64_t>(ranks());
+    std::vector<std::uint32_t> ids;
+    for (std::uint64_t id = n * r / p; id < n * (r + 1) / p; ++id) ids.push_back(static_cast<std::uint32_t>(id));
+    return ids;
+}
+
+std::string MpiDomain::why() const {
+    return std::to_string(ranks()) + " MPI processes, cells of " + std::to_string(cells_.edge()) + " m partitioned by METIS";
+}
+
+void MpiDomain::setup(World& world, std::vector<WarmImpulse>* warm) {
+    world_ = &world;
+    std::uint64_t ids = 0;  // the sum of every mixed gid, for the invariant check
+    for (std::uint32_t id : initial_bodies(scene_)) ids += SplitMix64::mix(id);
+    comm_.sum_wrapping(&ids, 1);
+    id_hash_ = ids;
+    repartition(world, warm);
+    move_bodies(world, warm);
+    exchange_states(world);
+}
+
+// Collective: the root gathers every process's occupied cells, partitions
+// them and sends the map back.
+void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* warm) {
+    std::vector<CellLoad> mine;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        const Vec3 x = position(world, i);
+        std::int64_t contacts = 0;
+        if (warm) {
+            const std::uint32_t gid = world.gid(i);
+            auto it = std::lower_bound(warm->begin(), warm->end(), gid, [](const WarmImpulse& m, std::uint32_t g) { return m.lo < g; });
+            for (; it != warm->end() && it->lo == gid; ++it) ++contacts;
+        }
+        mine.push_back({cells_.key(x.data()), 1 + contacts, 1});
+    }
+    mine = merge_cells(std::move(mine));
+    Bytes packed(mine.size() * sizeof(CellLoad));
+    if (!mine.empty()) std::memcpy(packed.data(), mine.data(), packed.size());
+    const auto parts = comm_.gather(packed, 0);
+    Bytes result;
+    if (comm_.rank() == 0) {
+        std::vector<CellLoad> all;
+        for (const Bytes& b : parts) {
+            const std::size_t at = all.size();
+            all.resize(at + b.size() / sizeof(CellLoad));
+            if (!b.empty()) std::memcpy(all.data() + at, b.data(), b.size());
+        }
+        const Partition p = partition_cells(merge_cells(std::move(all)), ranks());
+        put(result, static_cast<std::uint64_t>(p.keys.size()));
+        put(result, p.edge_cut);
+        put(result, p.imbalance);
+        for (std::size_t i = 0; i < p.keys.size(); ++i) {
+            put(result, p.keys[i]);
+            put(result, static_cast<std::int32_t>(p.owner[i]));
+        }
+    }
+    comm_.broadcast(result, 0);
+    std::size_t at = 0;
+    const auto n = take<std::uint64_t>(result, at);
+    edge_cut_ = take<std::int64_t>(result, at);
+    partition_imbalance_ = take<double>(result, at);
+    std::vector<std::uint64_t> keys(n);
+    std::vector<int> owners(n);
+    for (std::uint64_t i = 0; i < n; ++i) {
+        keys[i] = take<std::uint64_t>(result, at);
+        owners[i] = take<std::int32_t>(result, at);
+    }
+    map_.assign(std::move(keys), std::move(owners), ranks());
+    hold_.assign(hold_.size(), nullptr);  // cached holders belong to the old map
+}
+
+// Collective: max over processes of (owned bodies + contacts) / the mean.
+double MpiDomain::load_imbalance(const World& world, const std::vector<WarmImpulse>* warm) const {
+    const double load = static_cast<double>(world.owned_count() + (warm ? warm->size() : 0));
+    std::int64_t total = static_cast<std::int64_t>(load);
+    comm_.sum(&total, 1);
+    double most = load;
+    comm_.max(&most, 1);
+    const double mean = static_cast<double>(total) / ranks();
+    return mean > 0 ? most / mean : 1.0;
+}
+
+void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step) {
+    world_ = &world;
+    ++steps_;
+    const int every = std::max(1, scene_.parallel.rebalance_every);
+    if (step > 0 && step % every == 0) {
+        imbalance_ = load_imbalance(world, warm);
+        if (imbalance_ > scene_.parallel.rebalance_threshold) {
+            repartition(world, warm);
+            ++repartitions_;
+        }
+    }
+    move_bodies(world, warm);
+}
+
+// Owned bodies whose cell belongs to another process go there, with their
+// warm-start impulses; they stay here as ghosts until the next exchange
+// says whether this process still holds them.
+void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
+    std::map<int, Bytes> out;
+    std::vector<WarmImpulse> mine;
+    long sent = 0;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        const Vec3 x = position(world, i);
+        const int to = map_.owner(cells_.key(x.data()));
+        if (to == rank()) continue;
+        Bytes& b = out[to];
+        put(b, world.gid(i));
+        put(b, world.state(i));
+        put(b, world.origin(i));
+        mine.clear();
+        if (warm) take_impulses(*warm, world.gid(i), mine);
+        put(b, static_cast<std::uint32_t>(mine.size()));
+        for (const WarmImpulse& m : mine) put(b, m);
+        world.set_ghost(i, true);
+        ++sent;
+    }
+    receive_bodies(world, warm, comm_.sparse_exchange(out, kTagMigrate));
+    migrations_ += sent;
+}
+
+void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, const std::vector<std::pair<int, Bytes>>& in) {
+    bool any = false;
+    for (const auto& [from, b] : in) {
+        (void)from;
+        for (std::size_t at = 0; at < b.size();) {
+            const auto gid = take<std::uint32_t>(b, at);
+            const auto state = take<BodyState>(b, at);
+            const auto origin = take<Vec3>(b, at);
+            const auto count = take<std::uint32_t>(b, at);
+            for (std::uint32_t k = 0; k < count; ++k) {
+                const auto m = take<WarmImpulse>(b, at);
+                if (warm) warm->push_back(m);
+            }
+            std::uint32_t local = world.local_of(gid);
+            if (local == IdMap::kNone) {
+                world.add_body(gid, false, &state, &origin);
+            } else {
+                world.set_ghost(local, false);
+                world.set_state(local, state);
+                world.set_origin(local, origin);
+            }
+            any = true;
+        }
+    }
+    if (any && warm) sort_impulses(*warm);
+}
+
+// Owners send every body to the other holders of its cell; receivers update
+// the ghosts they have, add new ones and drop those nobody sent.
+void MpiDomain::exchange_states(World& world) {
+    world_ = &world;
+    std::map<int, Bytes> out;
+    std::map<int, std::vector<std::uint32_t>> sent;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        const Vec3 x = position(world, i);
+        for (int h : map_.holders(cells_.key(x.data()))) {
+            if (h == rank()) continue;
+            put(out[h], world.gid(i));
+            put(out[h], world.state(i));
+            sent[h].push_back(world.gid(i));
+        }
+    }
+    const auto in = comm_.sparse_exchange(out, kTagGhost);
+    std::vector<std::uint8_t> seen(world.body_count(), 0);
+    std::map<int, std::vector<std::uint32_t>> received;
+    for (const auto& [from, b] : in) {
+        for (std::size_t at = 0; at < b.size();) {
+            const auto gid = take<std::uint32_t>(b, at);
+            const auto state = take<BodyState>(b, at);
+            std::uint32_t local = world.local_of(gid);
+            if (local != IdMap::kNone && !world.ghost(local)) {
+                ++conflicts_;  // owned here and sent as a ghost: reported by check_invariants
+                continue;
+            }
+            if (local == IdMap::kNone) {
+                local = static_cast<std::uint32_t>(world.add_body(gid, true, &state));
+                seen.push_back(1);
+            } else {
+                world.set_state(local, state);
+                seen[local] = 1;
+            }
+            received[from].push_back(gid);
+        }
+    }
+    for (std::size_t i = world.body_count(); i-- > 0;) {
+        if (world.ghost(i) && !seen[i]) world.remove_body(i);
+    }
+    auto resolve = [&world](const std::map<int, std::vector<std::uint32_t>>& by_rank, std::vector<int>& ranks,
+                            std::vector<std::vector<std::uint32_t>>& locals) {
+        ranks.clear();
+        locals.clear();
+        for (const auto& [r, gids] : by_rank) {
+            ranks.push_back(r);
+            locals.emplace_back();
+            for (std::uint32_t g : gids) locals.back().push_back(world.local_of(g));
+        }
+    };
+    resolve(sent, send_to_, send_locals_);
+    resolve(received, recv_from_, recv_locals_);
+    index_bodies(world);
+}
+
+// Cells and holders of every local body, and the partners of the solver's
+// exchange: every process that holds a copy of any body held here.
+void MpiDomain::index_bodies(const World& world) {
+    const std::size_t n = world.body_count();
+    key_.resize(n);
+    hold_.resize(n);
+    for (int r : nbrs_) nbr_index_[static_cast<std::size_t>(r)] = -1;
+    nbrs_.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 x = position(world, i);
+        key_[i] = cells_.key(x.data());
+        hold_[i] = &map_.holders(key_[i]);
+        for (int h : *hold_[i]) {
+            if (h == rank() || nbr_index_[static_cast<std::size_t>(h)] >= 0) continue;
+            nbr_index_[static_cast<std::size_t>(h)] = static_cast<int>(nbrs_.size());
+            nbrs_.push_back(h);
+        }
+    }
+    std::sort(nbrs_.begin(), nbrs_.end());
+    for (std::size_t j = 0; j < nbrs_.size(); ++j) nbr_index_[static_cast<std::size_t>(nbrs_[j])] = static_cast<int>(j);
+}
+
+void MpiDomain::exchange_forces(World& world) {
+    std::vector<Bytes> out(send_to_.size());
+    for (std::size_t j = 0; j < send_to_.size(); ++j) {
+        for (std::uint32_t i : send_locals_[j]) {
+            const dReal* f = dBodyGetForce(world.body(i));
+            const dReal* t = dBodyGetTorque(world.body(i));
+            for (int k = 0; k < 3; ++k) put(out[j], f[k]);
+            for (int k = 0; k < 3; ++k) put(out[j], t[k]);
+        }
+    }
+    std::vector<Bytes> in;
+    comm_.exchange(send_to_, out, recv_from_, in, kTagForce);
+    for (std::size_t j = 0; j < recv_from_.size(); ++j) {
+        std::size_t at = 0;
+        for (std::uint32_t i : recv_locals_[j]) {
+            double v[6];
+            for (double& x : v) x = take<double>(in[j], at);
+            dBodySetForce(world.body(i), v[0], v[1], v[2]);
+            dBodySetTorque(world.body(i), v[3], v[4], v[5]);
+        }
+    }
+}
+
+void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
+    corr_.resize(touched.size());
+    for (std::size_t c = 0; c < touched.size(); ++c) {
+        corr_[c].assign(nbrs_.size(), {});
+        for (std::uint32_t b : touched[c]) {
+            for (int h : *hold_[b]) {
+                if (h != rank()) corr_[c][static_cast<std::size_t>(nbr_index_[static_cast<std::size_t>(h)])].push_back(b);
+            }
+        }
+    }
+}
+
+void MpiDomain::exchange(int colour, std::array<double, 6>* fc) {
+    const auto& lists = corr_[static_cast<std::size_t>(colour)];
+    std::vector<Bytes> out(nbrs_.size());
+    for (std::size_t j = 0; j < nbrs_.size(); ++j) {
+        out[j].reserve(lists[j].size() * (sizeof(std::uint32_t) + sizeof(fc[0])));
+        for (std::uint32_t b : lists[j]) {
+            put(out[j], world_->gid(b));
+            put(out[j], fc[b]);
+        }
+    }
+    std::vector<Bytes> in;
+    comm_.exchange(nbrs_, out, nbrs_, in, kTagCorrection);
+    for (const Bytes& b : in) {
+        for (std::size_t at = 0; at < b.size();) {
+            const auto gid = take<std::uint32_t>(b, at);
+            fc[world_->local_of(gid)] = take<std::array<double, 6>>(b, at);
+        }
+    }
+}
+
+// Collective: every ghost's digest against its owner's body.
+std::int64_t MpiDomain::ghost_mismatches(const World& world, std::string& detail) const {
+    std::map<int, Bytes> out;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) continue;
+        const int owner = map_.owner(key_[i]);
+        put(out[owner], world.gid(i));
+        put(out[owner], body_digest(world, i));
+    }
+    std::int64_t bad = 0;
+    std::ostringstream os;
+    for (const auto& [from, b] : comm_.sparse_exchange(out, kTagCheck)) {
+        for (std::size_t at = 0; at < b.size();) {
+            const auto gid = take<std::uint32_t>(b, at);
+            const auto digest = take<std::uint64_t>(b, at);
+            const std::uint32_t local = world.local_of(gid);
+            if (local != IdMap::kNone && !world.ghost(local) && body_digest(world, local) == digest) continue;
+            if (bad++ < 5) os << " body " << gid << " (ghost on rank " << from << ", owner rank " << rank() << ")";
+        }
+    }
+    detail = os.str();
+    return bad;
+}
+
+void MpiDomain::check_invariants(const World& world, long step) {
+    std::int64_t counts[4] = {static_cast<std::int64_t>(world.owned_count()), conflicts_, 0, 0};
+    std::uint64_t ids = 0;
+    std::ostringstream os;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        ids += SplitMix64::mix(world.gid(i));
+        if (map_.owner(key_[i]) != rank() && counts[2]++ < 5) {
+            os << " body " << world.gid(i) << " owned by rank " << rank() << " in a cell of rank " << map_.owner(key_[i]);
+        }
+    }
+    std::string ghosts;
+    counts[3] = ghost_mismatches(world, ghosts);
+    comm_.sum(counts, 4);
+    comm_.sum_wrapping(&ids, 1);
+    const bool lost = counts[0] != static_cast<std::int64_t>(world.global_body_count()) || ids != id_hash_;
+    if (!lost && !counts[1] && !counts[2] && !counts[3]) return;
+    std::ostringstream msg;
+    msg << "step " << step << ": distributed invariant violated: " << counts[0] << " bodies owned of "
+        << world.global_body_count() << (lost ? " (a body is lost or owned twice)" : "") << ", " << counts[1]
+        << " ghosts of owned bodies, " << counts[2] << " bodies outside their owner's cells, " << counts[3]
+        << " ghosts that differ from their owners:" << all_text(os.str() + ghosts, ";");
+    throw SimulationError(msg.str());
+}
+
+nlohmann::json MpiDomain::report() const {
+    std::int64_t c[3] = {0, static_cast<std::int64_t>(comm_.stats().bytes), migrations_};
+    if (world_) {
+        for (std::size_t i = 0; i < world_->body_count(); ++i) c[0] += world_->ghost(i) ? 1 : 0;
+    }
+    std::uint64_t messages = comm_.stats().messages;
+    const double seconds = comm_.stats().seconds;
+    comm_.sum(c, 3);
+    comm_.sum_wrapping(&messages, 1);
+    const double n = world_ ? static_cast<double>(world_->global_body_count()) : 1.0;
+    return {{"ranks", ranks()},
+            {"imbalance", imbalance_},
+            {"partition_imbalance", partition_imbalance_},
+            {"edge_cut", edge_cut_},
+            {"ghost_fraction", static_cast<double>(c[0]) / n},
+            {"migrations", c[2]},
+            {"repartitions", repartitions_},
+            {"rebalance_threshold", scene_.parallel.rebalance_threshold},
+            {"comm_seconds", {{"min", min(seconds)}, {"max", Domain::max(seconds)}}},
+            {"comm_bytes", c[1]},
+            {"messages_per_step", steps_ ? static_cast<double>(messages) / static_cast<double>(steps_) / ranks() : 0.0},
+            {"cell_edge", cells_.edge()},
+            {"cells", map_.mapped()}};
+}
+
+}  // namespace parode::mpi
