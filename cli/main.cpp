@@ -38,6 +38,7 @@ struct RunArgs {
     std::string trajectory;
     std::string reference;
     std::string dump;
+    int check_every = 0;
     bool quiet = false;
 };
 
@@ -88,6 +89,7 @@ int run_command(const RunArgs& a) {
     opt.snapshot_every = a.snapshot.empty() ? 0 : std::max(1, a.snapshot_every);
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
+    opt.invariants_every = a.check_every;
     const std::unique_ptr<Domain> domain = procs.make_domain(scene);
     opt.domain = domain.get();
     Pipeline pipeline(scene, opt);
@@ -127,6 +129,10 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
                     "Compare with a reference run: its --trajectory file (full error metrics) or its --report JSON "
                     "(final observables only); adds `error` to the report");
     run->add_option("--dump-on-failure", a.dump, "When the guard stops the run, write the last good state (CSV) here");
+    run->add_option("--check-invariants", a.check_every,
+                    "Steps between checks of the distributed invariants (one owner per body, constant count, ghosts "
+                    "equal owners; default 100, every step in debug builds)")
+        ->check(CLI::Range(1, 1000000000));
     run->add_flag("--quiet,-q", a.quiet, "No summary table and no progress bar");
     run->callback([&] { action = [&] { return run_command(a); }; });
 }

@@ -33,6 +33,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
         snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
     }
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
+    snapshot_path_ = options.snapshot_path;
 #ifdef NDEBUG
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
 #else
@@ -158,6 +159,7 @@ void Pipeline::run_output() {
         snapshot_ << steps_ << ',' << i << ',' << r[0] << ',' << r[1] << ',' << r[2] << ',' << r[3] << ',' << r[4]
                   << ',' << r[5] << ',' << r[6] << '\n';
     }
+    if (domain_->root() && !snapshot_.flush()) throw std::runtime_error(snapshot_path_ + ": the snapshot could not be written (disk full?)");
 }
 
 }  // namespace parode

@@ -116,6 +116,7 @@ private:
     std::unique_ptr<Checker> checker_;
     std::unique_ptr<Trajectory> trajectory_;
     std::ofstream snapshot_;
+    std::string snapshot_path_;
     int snapshot_every_ = 0;
     int invariants_every_ = 0;
     int steps_ = 0;

@@ -1,0 +1,101 @@
+// Distributed runs through the real launcher, for the MPI tests: a fixture
+// that runs `parode` without MPI or under mpiexec -n N (oversubscribed,
+// passive waiting, allowed as root) with a time limit, and the check that a
+// list of (ranks, threads) cases gives the state hash of the run without MPI.
+// Trade-off: shell commands and files in a temporary folder, as a user runs
+// them; each case is a whole process start-up.
+#pragma once
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace mpi_runs {
+
+namespace fs = std::filesystem;
+
+inline const std::string kSource = PARODE_SOURCE_DIR;
+
+struct Result {
+    int rc = -1;
+    std::string err;
+};
+
+inline std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream os;
+    os << in.rdbuf();
+    return os.str();
+}
+
+inline std::size_t count(const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+}
+
+class Mpi : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("parode_test_mpi_" + std::to_string(::getpid()));
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    // `parode ARGS` on `ranks` processes (0: without mpiexec), stderr kept.
+    Result run(int ranks, const std::string& args, int timeout_s = 240) const {
+        const fs::path err = dir_ / "stderr.txt";
+        std::string launcher = ranks > 0 ? std::string(PARODE_MPIEXEC) + " -n " + std::to_string(ranks) + " --oversubscribe " : "";
+        const std::string env = "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive ";
+        const std::string cmd = env + "timeout -k 5 " + std::to_string(timeout_s) + " " + launcher + "'" + PARODE_BINARY + "' " +
+                                args + " >/dev/null 2>'" + err.string() + "'";
+        const int status = std::system(cmd.c_str());
+        return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+    }
+    nlohmann::json report(const std::string& name) const { return nlohmann::json::parse(slurp(dir_ / name)); }
+    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+    fs::path dir_;
+};
+
+struct Case {
+    const char* scene;
+    int ranks, threads;
+};
+
+class Ranks : public Mpi, public ::testing::WithParamInterface<const char*> {
+protected:
+    // The hash of 500 steps of 2,000 catoms without MPI, then on each of
+    // `cases`, rebalancing whenever the load drifts by 2 %, invariants
+    // checked every step.
+    void same_hash(const std::vector<Case>& cases) {
+        const std::string scene = kSource + "/jobs/scenes/" + GetParam() + ".toml";
+        const std::string common = " run " + scene + " --steps 500 --collide grid --solver parallel -q --check-invariants 1"
+                                   " --set catoms.count=2000 --set parallel.rebalance_threshold=1.02"
+                                   " --set parallel.rebalance_every=5";
+        ASSERT_EQ(run(0, common + " --threads 1 --report " + path("ref.json")).rc, 0);
+        const nlohmann::json ref = report("ref.json");
+        for (const Case& c : cases) {
+            const std::string name = "r" + std::to_string(c.ranks) + "t" + std::to_string(c.threads) + ".json";
+            const Result r = run(c.ranks, common + " --threads " + std::to_string(c.threads) + " --report " + path(name), 900);
+            ASSERT_EQ(r.rc, 0) << c.ranks << " ranks x " << c.threads << " threads: " << r.err;
+            const nlohmann::json j = report(name);
+            EXPECT_EQ(j["state_hash"], ref["state_hash"]) << c.ranks << " ranks x " << c.threads << " threads";
+            EXPECT_EQ(j["bodies"], 2000);
+            EXPECT_EQ(j["ranks"], c.ranks);
+            if (c.ranks > 1) {
+                EXPECT_GT(j["parallel"]["migrations"].get<long>(), 0) << "bodies crossed between processes";
+                EXPECT_GE(j["parallel"]["repartitions"].get<long>(), 1) << "the load drifted past 2 % at least once";
+            }
+        }
+    }
+};
+
+}  // namespace mpi_runs

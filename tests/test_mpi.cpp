@@ -1,0 +1,77 @@
+// Distributed runs end to end: `parode run` under mpiexec on 1, 2 and 3
+// processes and 1..3 threads gives the state hash of the run without MPI
+// (with migrations and repartitions happening, invariants checked every
+// step), writes the same trajectory, snapshot and dump files, refuses scenes
+// it cannot distribute with one message, stops every process together when
+// the guard fires on one, and ends every process when one fails alone.
+// Trade-off: real processes through the real launcher (oversubscribed on a
+// small machine, passive waiting) test what a cluster user runs, at a few
+// seconds per case; scenes are kept to 2,000 catoms.
+#include "mpi_runs.hpp"
+
+namespace {
+
+using namespace mpi_runs;
+
+TEST_P(Ranks, SameStateHashAsOneProcess) {
+    same_hash({{GetParam(), 1, 2}, {GetParam(), 2, 1}, {GetParam(), 3, 1}});
+}
+
+INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-tennis"));
+
+// Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.
+TEST_F(Mpi, OutputFilesEqualOneProcessFiles) {
+    const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 60 --collide grid"
+                               " --solver parallel -q --set catoms.count=500 --snapshot-every 20";
+    ASSERT_EQ(run(0, common + " --trajectory " + path("a.traj") + " --snapshot " + path("a.csv")).rc, 0);
+    const Result r = run(2, common + " --trajectory " + path("b.traj") + " --snapshot " + path("b.csv"));
+    ASSERT_EQ(r.rc, 0) << r.err;
+    EXPECT_EQ(slurp(dir_ / "a.csv"), slurp(dir_ / "b.csv"));
+    EXPECT_GT(slurp(dir_ / "a.traj").size(), 60u * 500u * 24u / 10u);
+    EXPECT_EQ(slurp(dir_ / "a.traj"), slurp(dir_ / "b.traj"));
+}
+
+// The guard fires on the process that owns the fast body; every process
+// stops at the same step with exit 1, one message, the same dump file.
+TEST_F(Mpi, GuardStopsEveryProcessWithOneMessage) {
+    const std::string common = " run " + kSource + "/tests/data/mpi/fast_body.toml --collide grid --solver parallel -q";
+    const Result one = run(0, common + " --dump-on-failure " + path("one.csv"));
+    ASSERT_EQ(one.rc, 1) << one.err;
+    const Result two = run(2, common + " --dump-on-failure " + path("two.csv"));
+    EXPECT_EQ(two.rc, 1) << two.err;
+    EXPECT_EQ(count(two.err, "faster than guard.max_speed"), 1u) << two.err;
+    EXPECT_NE(two.err.find("fastest: 0 ("), std::string::npos) << "names the body: " << two.err;
+    EXPECT_EQ(slurp(dir_ / "one.csv"), slurp(dir_ / "two.csv"));
+}
+
+TEST_F(Mpi, JointedSceneIsRefusedWithTheReason) {
+    const Result r = run(2, " run " + kSource + "/jobs/scenes/buggy.toml --solver parallel -q");
+    EXPECT_EQ(r.rc, 3) << r.err;
+    EXPECT_EQ(count(r.err, "has joints"), 1u) << "one message, from the root: " << r.err;
+    EXPECT_NE(r.err.find("without mpirun"), std::string::npos) << r.err;
+}
+
+TEST_F(Mpi, OdeStepperIsRefusedWithTheReason) {
+    const Result r = run(2, " run " + kSource + "/jobs/scenes/tennis.toml --solver ode --set catoms.count=64 -q");
+    EXPECT_EQ(r.rc, 2) << r.err;
+    EXPECT_NE(r.err.find("use --solver parallel"), std::string::npos) << r.err;
+}
+
+TEST_F(Mpi, MagnetReachPastTheHaloIsRefused) {
+    const Result r = run(2, " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --solver parallel -q"
+                            " --set catoms.count=64 --set magnets.cutoff=1.5");
+    EXPECT_EQ(r.rc, 3) << r.err;
+    EXPECT_NE(r.err.find("reaches past the ghost halo"), std::string::npos) << r.err;
+}
+
+// Only the root writes snapshots: when its disk is full, it fails alone, and
+// every process must still end (through MPI_Abort), never wait forever.
+TEST_F(Mpi, FailureOnOneProcessEndsAllOfThem) {
+    const Result r = run(2, " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
+                            " --set catoms.count=500 --steps 2000 --snapshot /dev/full --snapshot-every 1", 60);
+    EXPECT_NE(r.rc, 0);
+    EXPECT_NE(r.rc, 124) << "timed out: a process waited for one that had stopped";
+    EXPECT_NE(r.err.find("rank 0: /dev/full: the snapshot could not be written"), std::string::npos) << r.err;
+}
+
+}  // namespace
