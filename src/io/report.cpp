@@ -1,6 +1,9 @@
 // Run report (see report.hpp).
 #include "io/report.hpp"
 
+#include <sys/resource.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -61,6 +64,13 @@ nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {
 
 namespace {
 
+// Peak resident memory of this process so far (bytes; Linux reports KiB).
+double peak_rss_bytes() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return static_cast<double>(u.ru_maxrss) * 1024.0;
+}
+
 // Collective: {min, avg, max} of a per-process value over the processes.
 nlohmann::json spread(const Domain& domain, double v) {
     ExactSum total;
@@ -107,6 +117,12 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();
     r["parallel"] = domain.report();
+    const double rss = peak_rss_bytes();
+    ExactSum total_rss;
+    total_rss.add(rss);
+    domain.sum(&total_rss, 1);
+    r["memory"] = {{"peak_rss_bytes", spread(domain, rss)},
+                   {"bytes_per_body", total_rss.value() / std::max<double>(1.0, static_cast<double>(p.world().global_body_count()))}};
     const nlohmann::json checks = p.checks_result();
     if (!checks.is_null()) r["checks"] = checks;
     r["build"] = build_info();
