@@ -61,7 +61,7 @@ def scene_error(scene, e):
     if scene == "magnetic-tennis":
         return o["shape_error"]
     if scene == "buggy":
-        return max(e["series"]["rms"])
+        return max(e["series"]["rms"], default=0.0)
     return abs(o["com_height"]["diff"]) + abs(o["spread"]["diff"])
 
 
@@ -69,11 +69,17 @@ def load_scene(scene_dir):
     """{config: [reports by run]}, [noise-floor reports], failures {config: message}."""
     configs, noise, failed = {}, [], {}
     for path in sorted(glob.glob(os.path.join(scene_dir, "*.json"))):
-        with open(path) as f:
-            r = json.load(f)
+        try:
+            with open(path) as f:
+                r = json.load(f)
+        except ValueError as e:
+            failed[os.path.basename(path)] = f"not a JSON report ({e})"
+            continue
         sw = r.get("sweep", {"role": "config", "config": os.path.splitext(os.path.basename(path))[0], "run": 1})
         if "failed" in r:
             failed[sw.get("config", path)] = r["failed"].splitlines()[-1][:120] if r["failed"] else "failed"
+        elif r.get("steps", 0) == 0:
+            failed[sw.get("config", path)] = "no step in the duration (dt longer than the run)"
         elif sw.get("role") == "noise-floor" and "error" in r:
             noise.append(r)
         elif sw.get("role") == "config" and "error" in r:
@@ -263,6 +269,8 @@ def main():
     for scene_dir in scene_dirs(args.dir):
         scene = os.path.basename(os.path.dirname(scene_dir))
         configs, noise_reports, failed = load_scene(scene_dir)
+        for name, why in failed.items():
+            print(f"{scene}: {name} failed: {why}", file=sys.stderr)
         if not configs:
             print(f"{scene}: no configuration reports, skipped", file=sys.stderr)
             continue
@@ -278,8 +286,6 @@ def main():
         plot(scene, rows, front, noise, label, title, args.out)
         done += 1
         print(f"{scene}: {len(rows)} configurations, front: " + ", ".join(r["config"] for r in front))
-        for name, why in failed.items():
-            print(f"  {name} failed: {why}")
     if not done:
         fail(f"no configuration reports under {args.dir}")
     print(f"wrote {args.out}")
