@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Stability map table from jobs/stability_map.py output.
 
-Reads DIR/<case>/dt<k>.json and it<n>.json and writes
-analysis/results/stability_map.csv and .md: for each hard case, its own dt and
+Reads DIR/<case>/dt<k>.json and it<n>.json and writes OUT/stability_map.csv
+and .md (OUT: default results/analysis; `--out analysis/results` updates the
+committed ones): for each hard case, its own dt and
 iterations, the largest dt (at its own iterations) such that it and every
 smaller dt tried pass the case's [checks], the first failing dt and why, and
 the fewest iterations (at its own dt) such that it and every larger count
@@ -10,12 +11,20 @@ tried pass.
 Trade-off: thresholds are bracketed by the ladder (factors of 2 in dt), not
 bisected.
 
-Usage: python3 analysis/stability_map.py DIR [--out analysis/results]
+Usage: python3 analysis/stability_map.py DIR [--out results/analysis]
 """
 import argparse
 import glob
 import json
 import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def fail(message):
+    print(f"stability_map: {message}", file=sys.stderr)
+    sys.exit(2)
 
 
 def why(r):
@@ -65,10 +74,17 @@ def case_row(case_dir):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir", help="jobs/stability_map.py --out")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "results"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "analysis"),
+                    help="where the table goes (default results/analysis; analysis/results updates the committed one)")
     args = ap.parse_args()
+    if not os.path.isdir(args.dir):
+        fail(f"no such folder: {args.dir} (run jobs/stability_map.py first, or pass the committed "
+             "analysis/results/<machine>/stability)")
+    cases = [d for d in sorted(glob.glob(os.path.join(args.dir, "*", ""))) if glob.glob(os.path.join(d, "dt*.json"))]
+    if not cases:
+        fail(f"{args.dir} has no case folders with dt*.json reports (from jobs/stability_map.py)")
     os.makedirs(args.out, exist_ok=True)
-    rows = [case_row(d) for d in sorted(glob.glob(os.path.join(args.dir, "*", "")))]
+    rows = [case_row(d) for d in cases]
     keys = list(rows[0].keys())
     with open(os.path.join(args.out, "stability_map.csv"), "w") as f:
         f.write(",".join(keys) + "\n")

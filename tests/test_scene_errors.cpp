@@ -239,6 +239,23 @@ TEST(SceneFile, ExampleScenesLoad) {
     const parode::Scene buggy = parode::load_scene(kSourceDir + "/jobs/scenes/buggy.toml");
     EXPECT_EQ(buggy.body_count(), 4u);
     EXPECT_EQ(buggy.joints.size(), 3u);
+    EXPECT_TRUE(buggy.controller.path == parode::DrivePath::FigureEight);
+    EXPECT_EQ(buggy.controller.chassis, 0);  // first body of the steered joint
+    EXPECT_DOUBLE_EQ(buggy.controller.start[2], 0.5);
+    const parode::Scene fast = parode::load_scene(kSourceDir + "/jobs/scenes/hard/buggy-fast.toml");
+    EXPECT_TRUE(fast.controller.path == parode::DrivePath::Straight);
+}
+
+// The driver's table is checked like the others: an unknown path type, or a key
+// of an older driver, names the key and what is accepted.
+TEST(SceneOverride, ControllerKeysAreChecked) {
+    const std::string buggy = kSourceDir + "/jobs/scenes/buggy.toml";
+    std::string msg = scene_error(buggy, {"controller.type=\"loop\""});
+    EXPECT_NE(msg.find("expected one of \"figure-eight\", \"straight\""), std::string::npos) << msg;
+    msg = scene_error(buggy, {"controller.period=12.0"});
+    EXPECT_NE(msg.find("unknown key 'controller.period'"), std::string::npos) << msg;
+    msg = scene_error(buggy, {"controller.speed_min=-1.0"});
+    EXPECT_NE(msg.find("'controller.speed_min': expected a number >= 0"), std::string::npos) << msg;
 }
 
 }  // namespace

@@ -1,20 +1,37 @@
-// The deterministic buggy driver: steering follows a smoothed square wave (left
-// circle, right circle: a figure eight per period) and the drive speed a slow
-// sine between speed_min and speed_max. It depends only on time and joint
-// angles, so every run drives the same way.
-// Trade-off: a fixed script, not a path follower; enough to exercise motors,
-// steering and contacts the same way in every configuration.
+// The deterministic buggy driver: the chassis follows a fixed track from its
+// start pose, on a schedule. The track is a figure eight of two circles of
+// radius R (a left circle, anticlockwise seen from above, then a right one;
+// the heading goes +2 pi then back by -2 pi, 4 pi R of track per eight) or a
+// straight line. The schedule drives along it at a wheel speed that varies
+// slowly (a sine between speed_min and speed_max), so the target point and
+// heading at time t are known in closed form. Steering: feedforward for the
+// track's curvature plus a proportional law on the chassis yaw against the
+// track heading, corrected towards the track by the cross-track error; the
+// wheels speed up by the along-track lag (never above 1.25 x speed_max).
+// Trade-off: tracking a scheduled point, not the distance actually driven,
+// keeps the driver stateless (every run and configuration drives the same
+// script) and brings the buggy back to its start after every eight whatever
+// wheel slip and the ramp do; the speed is the schedule's plus a small
+// catch-up term, not exactly the sine.
 #pragma once
 #include "world/world.hpp"
 
 namespace parode {
 
-struct DriveCommand {
-    double steer;  // target steering angle (rad)
-    double speed;  // wheel angular velocity (rad/s)
+struct TrackPoint {
+    double x, y;       // target position of the chassis (m)
+    double heading;    // track direction (rad, anticlockwise from +x, unwrapped)
+    double curvature;  // signed curvature (1/m, left positive)
 };
 
-DriveCommand drive_command(const ControllerSpec& c, double t);
+// Track length the schedule covers in t seconds (m).
+double drive_distance(const ControllerSpec& c, double t);
+// Time at which the schedule has covered `distance` metres of track (s).
+double time_at_distance(const ControllerSpec& c, double distance);
+// Track length of one figure eight (m): two circles of c.radius.
+double eight_length(const ControllerSpec& c);
+// Target pose `distance` metres along the track.
+TrackPoint track_point(const ControllerSpec& c, double distance);
 void apply_controller(World& world, const ControllerSpec& c, double t);
 
 }  // namespace parode

@@ -85,17 +85,30 @@ struct MagnetModel {
     double cutoff = 0.25;          // pole-pole interaction range (m)
 };
 
-// The deterministic buggy driver: figure eights at varying speeds.
+// The deterministic buggy driver (forces/controller.hpp): the chassis follows a
+// figure-eight track (or a straight line) from its start pose on a schedule of
+// slowly varying speed.
+enum class DrivePath { FigureEight, Straight };
+
 struct ControllerSpec {
     bool enabled = false;
+    DrivePath path = DrivePath::FigureEight;
     std::vector<int> steer_joints;  // hinge2 joints whose axis 1 steers
     std::vector<int> drive_joints;  // hinge2 joints whose axis 2 drives
-    double steer_amplitude = 0.5;   // rad
-    double period = 8.0;            // s per figure eight
-    double speed_min = 5.0;         // wheel rad/s
+    int chassis = -1;               // body steered along the track: body 1 of the first steer (else drive) joint
+    Vec3 start{0, 0, 0};            // the chassis' start position: where the track begins
+    double start_heading = 0.0;     // the chassis' start yaw (rad): the track's first direction
+    double radius = 2.0;            // m, radius of each circle of the eight
+    double wheel_radius = 0.18;     // m, converts the wheel speed into distance along the track
+    double wheelbase = 0.7;         // m, steered axle to the rear axle (steering feedforward)
+    double heading_gain = 2.0;      // rad of steering per rad of heading error
+    double track_gain = 1.0;        // 1/m: heading correction atan(track_gain x cross-track error)
+    double pace_gain = 1.0;         // 1/s: extra speed (m/s) per metre behind the schedule
+    double steer_amplitude = 0.5;   // rad, largest steering angle
+    double speed_min = 5.0;         // wheel rad/s of the schedule
     double speed_max = 15.0;
     double speed_period = 20.0;     // s per speed cycle
-    double steer_gain = 10.0;
+    double steer_gain = 10.0;       // steering servo: rad/s per rad of angle error
     double steer_fmax = 5.0;
     double drive_fmax = 1.0;
 };

@@ -228,21 +228,40 @@ std::vector<int> joint_refs(const Scene& sc, const Node& t, const std::string& k
     return out;
 }
 
+// The chassis (body 1 of the first steered, else driven, joint) and its start pose.
+void controller_start(const Node& t, const Scene& sc, ControllerSpec& c) {
+    const int j = c.steer_joints.empty() ? c.drive_joints.front() : c.steer_joints.front();
+    c.chassis = sc.joints[static_cast<std::size_t>(j)].body_a;
+    if (c.chassis < 0) t.fail(c.steer_joints.empty() ? "drive" : "steer", "joints whose first body is the chassis");
+    const BodySpec& b = sc.bodies[static_cast<std::size_t>(c.chassis)];
+    const Quat& q = b.orientation;  // yaw of the body's x axis
+    c.start = b.position;
+    c.start_heading = std::atan2(2 * (q[1] * q[2] + q[0] * q[3]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+}
+
 void read_controller(const Node& root, Scene& sc) {
     if (!root.has("controller")) return;
     const Node t = root.at("controller");
-    t.expect_keys({"type", "steer", "drive", "steer_amplitude", "period", "speed_min", "speed_max",
-                   "speed_period", "steer_gain", "steer_fmax", "drive_fmax"});
-    t.choice("type", "figure-eight", {"figure-eight"});
+    t.expect_keys({"type", "steer", "drive", "radius", "wheel_radius", "wheelbase", "heading_gain", "track_gain",
+                   "pace_gain", "steer_amplitude", "speed_min", "speed_max", "speed_period", "steer_gain",
+                   "steer_fmax", "drive_fmax"});
     ControllerSpec& c = sc.controller;
+    c.path = t.choice("type", "figure-eight", {"figure-eight", "straight"}) == "straight" ? DrivePath::Straight
+                                                                                         : DrivePath::FigureEight;
     c.enabled = true;
     c.steer_joints = joint_refs(sc, t, "steer");
     c.drive_joints = joint_refs(sc, t, "drive");
     if (c.drive_joints.empty()) t.fail("drive", "at least one hinge2 joint name");
+    controller_start(t, sc, c);
+    c.radius = t.number("radius", c.radius, 1e-3);
+    c.wheel_radius = t.number("wheel_radius", c.wheel_radius, 1e-3);
+    c.wheelbase = t.number("wheelbase", c.wheelbase, 0.0);
+    c.heading_gain = t.number("heading_gain", c.heading_gain, 0.0);
+    c.track_gain = t.number("track_gain", c.track_gain, 0.0);
+    c.pace_gain = t.number("pace_gain", c.pace_gain, 0.0);
     c.steer_amplitude = t.number("steer_amplitude", c.steer_amplitude, 0.0, 1.5);
-    c.period = t.number("period", c.period, 1e-6);
-    c.speed_min = t.number("speed_min", c.speed_min);
-    c.speed_max = t.number("speed_max", c.speed_max);
+    c.speed_min = t.number("speed_min", c.speed_min, 0.0);
+    c.speed_max = t.number("speed_max", c.speed_max, c.speed_min);
     c.speed_period = t.number("speed_period", c.speed_period, 1e-6);
     c.steer_gain = t.number("steer_gain", c.steer_gain, 0.0);
     c.steer_fmax = t.number("steer_fmax", c.steer_fmax, 0.0);
