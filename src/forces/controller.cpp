@@ -75,7 +75,7 @@ TrackPoint track_point(const ControllerSpec& c, double distance) {
 
 void apply_controller(World& world, const ControllerSpec& c, double t) {
     const TrackPoint target = track_point(c, drive_distance(c, t));
-    const auto [steer, lag] = steer_and_lag(c, target, chassis_pose(world.body(static_cast<std::size_t>(c.chassis))));
+    const auto [steer, lag] = steer_and_lag(c, target, chassis_pose(world.body(world.local_of(static_cast<std::uint32_t>(c.chassis)))));
     const double speed = std::clamp(scheduled_speed(c, t) + c.pace_gain * lag / c.wheel_radius, 0.0, 1.25 * c.speed_max);
     for (int j : c.steer_joints) {
         dJointID id = world.joint(static_cast<std::size_t>(j));
