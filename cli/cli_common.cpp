@@ -67,6 +67,12 @@ int guarded(const std::function<int()>& action) {
     }
 }
 
+void write_json(const std::string& path, const nlohmann::json& j) {
+    std::ofstream out(path);
+    out << j.dump(2) << '\n';
+    if (!out) throw std::runtime_error(path + ": cannot write");
+}
+
 int checks_exit_code(const nlohmann::json& report, bool print) {
     if (!report.contains("checks") || report["checks"]["passed"].get<bool>()) return 0;
     if (!print) return kExitChecks;

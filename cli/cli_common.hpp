@@ -55,4 +55,12 @@ struct CompareArgs {
 };
 void add_compare(CLI::App& app, CompareArgs& a, std::function<int()>& action);
 
+struct LatencyArgs {
+    int rounds = 20000;
+    std::string json;
+};
+void add_latency(CLI::App& app, LatencyArgs& a, std::function<int()>& action);
+// Writes a JSON document; throws std::runtime_error naming the file.
+void write_json(const std::string& path, const nlohmann::json& j);
+
 }  // namespace parode::cli

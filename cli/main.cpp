@@ -155,10 +155,12 @@ int main(int argc, char** argv) {
     RunArgs run_args;
     BenchArgs bench_args;
     CompareArgs compare_args;
+    LatencyArgs latency_args;
     std::function<int()> action;
     add_run(app, run_args, action);
     add_bench(app, bench_args, action);
     add_compare(app, compare_args, action);
+    add_latency(app, latency_args, action);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -72,6 +72,13 @@ void Processes::abort(int code) const {
     std::exit(code);
 }
 
+std::pair<double, double> Processes::latency([[maybe_unused]] int rounds, [[maybe_unused]] std::size_t bytes) const {
+#ifdef PARODE_HAVE_MPI
+    if (size_ > 1) return {mpi_->comm.ping_pong_latency(rounds), mpi_->comm.exchange_round(rounds, bytes)};
+#endif
+    return {0.0, 0.0};
+}
+
 std::string Processes::describe() const {
 #ifdef PARODE_HAVE_MPI
     return mpi_ ? std::to_string(size_) + " MPI process(es)" : "one process (MPI built in, not launched)";

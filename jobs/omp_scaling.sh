@@ -34,8 +34,9 @@ for n in $SIZES; do
   reps=21
   [ "$n" -ge 40 ] && reps=7
   [ "$n" -ge 100 ] && reps=5
-  "$BUILD/tests/omp/omp_collide_bench" "$n" "$reps" "$backends" "$THREADS" |
-    { if [ -s "$OUT" ]; then tail -n +2; else cat; fi; } >>"$OUT"
+  skip=1  # the CSV header, once
+  [ -s "$OUT" ] && skip=2
+  "$BUILD/tests/omp/omp_collide_bench" "$n" "$reps" "$backends" "$THREADS" | tail -n +"$skip" >>"$OUT"
 done
 cat "$OUT"
 

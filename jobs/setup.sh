@@ -9,7 +9,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export DEBIAN_FRONTEND=noninteractive
 
 apt_packages=(build-essential cmake ninja-build pkg-config libode-dev libmetis-dev
-  libopenmpi-dev openmpi-bin libgtest-dev nlohmann-json3-dev libtoml11-dev libcli11-dev
+  libopenmpi-dev openmpi-bin libgtest-dev nlohmann-json3-dev libtoml11-dev libcli11-dev shellcheck
   python3 python3-pip)
 missing=()
 for p in "${apt_packages[@]}"; do
@@ -22,10 +22,10 @@ if ((${#missing[@]})); then
   $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if ! python3 -c "import numpy, matplotlib" 2>/dev/null; then
-  echo "setup: installing numpy and matplotlib"
-  python3 -m pip install --quiet numpy matplotlib 2>/dev/null \
-    || python3 -m pip install --quiet --break-system-packages numpy matplotlib
+if ! python3 -c "import numpy, matplotlib, pandas" 2>/dev/null; then
+  echo "setup: installing numpy, matplotlib and pandas"
+  python3 -m pip install --quiet numpy matplotlib pandas 2>/dev/null \
+    || python3 -m pip install --quiet --break-system-packages numpy matplotlib pandas
 fi
 
 cd "$root"

@@ -198,4 +198,19 @@ double Comm::ping_pong_latency(int rounds) const {
     return t;
 }
 
+double Comm::exchange_round(int rounds, std::size_t bytes) const {
+    std::vector<int> others;
+    for (int r = 0; r < size_; ++r) {
+        if (r != rank_) others.push_back(r);
+    }
+    const std::vector<Bytes> out(others.size(), Bytes(bytes, 0));
+    std::vector<Bytes> in;
+    MPI_Barrier(MPI_COMM_WORLD);
+    const double t0 = MPI_Wtime();
+    for (int r = 0; r < rounds; ++r) exchange(others, out, others, in, 98);
+    double t = (MPI_Wtime() - t0) / rounds;
+    MPI_Allreduce(MPI_IN_PLACE, &t, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    return t;
+}
+
 }  // namespace parode::mpi

@@ -60,9 +60,12 @@ public:
                   std::vector<Bytes>& in, int tag) const;
 
     [[noreturn]] void abort(int code) const;
-    // Open MPI's point-to-point latency between two processes, measured by a
-    // ping-pong of `rounds` small messages (collective; seconds one way).
+    // Point-to-point latency between ranks 0 and 1, measured by a ping-pong
+    // of `rounds` one-byte messages (collective; seconds one way).
     double ping_pong_latency(int rounds) const;
+    // Seconds of one round of exchange() in which every process swaps a
+    // message of `bytes` with every other (collective; the mean of `rounds`).
+    double exchange_round(int rounds, std::size_t bytes) const;
 
     const CommStats& stats() const { return stats_; }
 

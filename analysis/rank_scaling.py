@@ -1,0 +1,166 @@
+#!/usr/bin/env python3
+"""Speed-up and parallel efficiency over MPI ranks x OpenMP threads.
+
+Reads the JSON run reports that jobs/rank_scaling.sh writes (one per run,
+repeats allowed) and, per (mode, ranks, threads), takes the median ms/step and
+per-stage time over repeats. Strong scaling (the same catoms for every run):
+speed-up = t(1 rank, 1 thread) / t and efficiency = speed-up / (ranks x
+threads). Weak scaling (catoms per rank fixed): efficiency = t(1 rank) / t at
+the same thread count. Also reports ghost fraction, communication share,
+messages per step, peak memory per rank, and whether every run of one size
+gave the same state hash.
+
+Writes OUT/rank_scaling.md, OUT/rank_scaling.csv and OUT/rank_scaling.png
+(speed-up, efficiency, and time per stage as stacked bars).
+Trade-off: medians hide the spread; the CSV keeps min and max for that.
+
+Usage: python3 analysis/rank_scaling.py DIR [--out OUT]   (OUT defaults to DIR)
+"""
+import argparse
+import glob
+import json
+import os
+import sys
+
+import pandas as pd
+
+STAGES = ["migrate", "exchange", "forces", "collide", "solve", "observe", "output"]
+
+
+def load(directory):
+    rows = []
+    for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
+        try:
+            with open(path) as f:
+                r = json.load(f)
+        except (OSError, json.JSONDecodeError) as e:
+            print(f"{path}: skipped ({e})", file=sys.stderr)
+            continue
+        if "ms_per_step" not in r or not r.get("steps"):
+            continue
+        name = os.path.basename(path)
+        mode = name.split("-")[0] if name.split("-")[0] in ("strong", "weak") else "strong"
+        steps = r["steps"]
+        par = r.get("parallel", {})
+        row = {"mode": mode, "catoms": r["bodies"], "ranks": r.get("ranks", 1), "threads": r["threads"],
+               "ms": r["ms_per_step"], "hash": r["state_hash"],
+               "ghost_fraction": par.get("ghost_fraction", 0.0),
+               "comm_s": par.get("comm_seconds", {}).get("max", 0.0) if isinstance(par.get("comm_seconds"), dict) else 0.0,
+               "messages": par.get("messages_per_step", 0.0),
+               "rss_mb": r.get("memory", {}).get("peak_rss_bytes", {}).get("max", 0.0) / 2**20,
+               "wall": r["wall_s"]}
+        for s in STAGES:
+            row[s] = 1e3 * r["stages"].get(s, 0.0) / steps
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def summarise(df):
+    keys = ["mode", "catoms", "ranks", "threads"]
+    g = df.groupby(keys)
+    out = g[["ms"] + STAGES + ["ghost_fraction", "comm_s", "messages", "rss_mb", "wall"]].median()
+    out["ms_min"] = g["ms"].min()
+    out["ms_max"] = g["ms"].max()
+    out["runs"] = g["ms"].count()
+    out = out.reset_index()
+    out["comm_share"] = out["comm_s"] / out["wall"].where(out["wall"] > 0, 1)
+    for mode, part in out.groupby("mode"):
+        idx = part.index
+        if mode == "strong":
+            for n, same in part.groupby("catoms"):
+                base = same[(same.ranks == 1) & (same.threads == 1)]
+                if base.empty:
+                    continue
+                t1 = base["ms"].iloc[0]
+                out.loc[same.index, "speedup"] = t1 / same["ms"]
+                out.loc[same.index, "efficiency"] = t1 / same["ms"] / (same.ranks * same.threads)
+        else:
+            for t, same in part.groupby("threads"):
+                base = same[same.ranks == 1]
+                if base.empty:
+                    continue
+                out.loc[same.index, "efficiency"] = base["ms"].iloc[0] / same["ms"]
+        del idx
+    return out
+
+
+def hashes_agree(df):
+    bad = []
+    for (mode, n), part in df.groupby(["mode", "catoms"]):
+        if part["hash"].nunique() > 1:
+            bad.append(f"{mode} {n}: {sorted(part['hash'].unique())}")
+    return bad
+
+
+def markdown(out, bad):
+    lines = ["| mode | catoms | ranks | threads | ms/step (min-max) | speed-up | efficiency | collide | solve | "
+             "migrate+exchange | ghosts | comm share | msgs/step | peak MB/rank |", "|" + "---|" * 14]
+    for _, r in out.iterrows():
+        sp = f"{r['speedup']:.2f}" if "speedup" in r and pd.notna(r.get("speedup")) else "-"
+        ef = f"{r['efficiency']:.2f}" if pd.notna(r.get("efficiency")) else "-"
+        lines.append(f"| {r['mode']} | {r['catoms']} | {r['ranks']} | {r['threads']} | {r['ms']:.1f} "
+                     f"({r['ms_min']:.1f}-{r['ms_max']:.1f}) | {sp} | {ef} | {r['collide']:.1f} | {r['solve']:.1f} | "
+                     f"{r['migrate'] + r['exchange']:.1f} | {100 * r['ghost_fraction']:.1f} % | "
+                     f"{100 * r['comm_share']:.1f} % | {r['messages']:.0f} | {r['rss_mb']:.0f} |")
+    lines.append("")
+    lines.append("state hash identical for every rank and thread count of each size" if not bad
+                 else "STATE HASHES DIFFER: " + "; ".join(bad))
+    return "\n".join(lines) + "\n"
+
+
+def plot(out, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
+    for (mode, n, t), part in out.groupby(["mode", "catoms", "threads"]):
+        part = part.sort_values("ranks")
+        label = f"{mode} {n} catoms, {t} thr"
+        if mode == "strong" and "speedup" in part:
+            axes[0].plot(part.ranks, part.speedup, "o-", label=label)
+        axes[1].plot(part.ranks, part.efficiency, "o-", label=label)
+    axes[0].set(xlabel="ranks", ylabel="speed-up vs 1 rank x 1 thread", title="strong scaling")
+    axes[1].set(xlabel="ranks", ylabel="efficiency", title="parallel efficiency", ylim=(0, 1.2))
+    labels = [f"{r.mode[0]} n={r.catoms}\n{r.ranks}r x {r.threads}t" for r in out.itertuples()]
+    bottom = [0.0] * len(out)
+    for s in STAGES:
+        vals = list(out[s])
+        if sum(vals) == 0:
+            continue
+        axes[2].bar(range(len(out)), vals, bottom=bottom, label=s)
+        bottom = [b + v for b, v in zip(bottom, vals)]
+    axes[2].set_xticks(range(len(out)), labels, fontsize=7)
+    axes[2].set(ylabel="ms per step (max over ranks)", title="time per stage")
+    for ax in axes:
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("dir")
+    ap.add_argument("--out")
+    a = ap.parse_args()
+    if not os.path.isdir(a.dir):
+        print(f"rank_scaling: {a.dir}: no such folder", file=sys.stderr)
+        sys.exit(2)
+    df = load(a.dir)
+    if df.empty:
+        print(f"rank_scaling: {a.dir}: no run reports", file=sys.stderr)
+        sys.exit(2)
+    out_dir = a.out or a.dir
+    os.makedirs(out_dir, exist_ok=True)
+    out = summarise(df)
+    bad = hashes_agree(df)
+    text = markdown(out, bad)
+    print(text)
+    with open(os.path.join(out_dir, "rank_scaling.md"), "w") as f:
+        f.write(text)
+    out.to_csv(os.path.join(out_dir, "rank_scaling.csv"), index=False)
+    plot(out, os.path.join(out_dir, "rank_scaling.png"))
+    sys.exit(1 if bad else 0)
+
+
+if __name__ == "__main__":
+    main()
