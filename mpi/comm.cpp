@@ -178,6 +178,52 @@ void Comm::exchange(const std::vector<int>& to, const std::vector<Bytes>& out, c
     check(MPI_Waitall(static_cast<int>(sends.size()), sends.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
 }
 
+namespace {
+
+// Every process agrees whether an MPI-IO call failed anywhere.
+void io_check(int rc, const std::string& path, const char* what) {
+    int bad = rc != MPI_SUCCESS ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (bad) throw std::runtime_error(path + ": " + what + " failed on at least one process");
+}
+
+}  // namespace
+
+void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
+                      const std::vector<std::uint32_t>& gids, const Bytes& records, std::uint64_t tail_at,
+                      const Bytes& tail) const {
+    Clock c(stats_);
+    MPI_File fh;
+    MPI_File_set_errhandler(MPI_FILE_NULL, MPI_ERRORS_RETURN);
+    io_check(MPI_File_open(MPI_COMM_WORLD, path.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh), path,
+             "opening for writing");
+    int rc = MPI_File_set_size(fh, 0);
+    if (rank_ == 0 && rc == MPI_SUCCESS && !head.empty()) {
+        rc = MPI_File_write_at(fh, 0, head.data(), static_cast<int>(head.size()), MPI_BYTE, MPI_STATUS_IGNORE);
+    }
+    MPI_Datatype rec, view;
+    MPI_Type_contiguous(static_cast<int>(record), MPI_BYTE, &rec);
+    MPI_Type_commit(&rec);
+    const std::vector<int> at(gids.begin(), gids.end());
+    MPI_Type_create_indexed_block(static_cast<int>(at.size()), 1, at.data(), rec, &view);
+    MPI_Type_commit(&view);
+    int rc2 = MPI_File_set_view(fh, static_cast<MPI_Offset>(records_at), rec, view, "native", MPI_INFO_NULL);
+    if (rc2 == MPI_SUCCESS) rc2 = MPI_File_write_all(fh, records.data(), static_cast<int>(gids.size()), rec, MPI_STATUS_IGNORE);
+    long long mine = static_cast<long long>(tail.size()), before = 0;
+    MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    if (rank_ == 0) before = 0;
+    int rc3 = MPI_File_set_view(fh, 0, MPI_BYTE, MPI_BYTE, "native", MPI_INFO_NULL);
+    if (rc3 == MPI_SUCCESS) {
+        rc3 = MPI_File_write_at_all(fh, static_cast<MPI_Offset>(tail_at) + before, tail.data(), static_cast<int>(tail.size()),
+                                    MPI_BYTE, MPI_STATUS_IGNORE);
+    }
+    MPI_Type_free(&view);
+    MPI_Type_free(&rec);
+    const int rc4 = MPI_File_close(&fh);
+    stats_.bytes += head.size() + records.size() + tail.size();
+    io_check(rc != MPI_SUCCESS ? rc : rc2 != MPI_SUCCESS ? rc2 : rc3 != MPI_SUCCESS ? rc3 : rc4, path, "writing");
+}
+
 void Comm::abort(int code) const { MPI_Abort(MPI_COMM_WORLD, code); std::abort(); }
 
 double Comm::ping_pong_latency(int rounds) const {

@@ -59,6 +59,16 @@ public:
     void exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
                   std::vector<Bytes>& in, int tag) const;
 
+    // Collective MPI-IO: the root's `head` at 0; `records` (one of `record`
+    // bytes per entry of `gids`, ascending) at records_at + gid * record,
+    // through an indexed file view and a collective write (aggregated by the
+    // MPI library); each process's `tail` after the previous ranks' tails,
+    // from tail_at. Throws std::runtime_error (on every process) when the file
+    // cannot be opened or written.
+    void write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
+                    const std::vector<std::uint32_t>& gids, const Bytes& records, std::uint64_t tail_at,
+                    const Bytes& tail) const;
+
     [[noreturn]] void abort(int code) const;
     // Point-to-point latency between ranks 0 and 1, measured by a ping-pong
     // of `rounds` one-byte messages (collective; seconds one way).

@@ -51,6 +51,9 @@ public:
     void max(double* v, int n) const override { comm_.max(v, n); }
     std::vector<std::vector<char>> all_gather(const std::vector<char>& mine) const override { return comm_.all_gather(mine); }
     std::vector<std::vector<char>> gather(const std::vector<char>& mine) const override { return comm_.gather(mine, 0); }
+    void write_file(const std::string& path, const FilePieces& f) const override {
+        comm_.write_file(path, f.head, f.records_at, f.record, f.gids, f.records, f.tail_at, f.tail);
+    }
 
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
     void exchange(int colour, std::array<double, 6>* fc) override;

@@ -2,7 +2,9 @@
 // (see domain.hpp).
 #include "domain/domain.hpp"
 
+#include <fstream>
 #include <numeric>
+#include <stdexcept>
 
 namespace parode {
 
@@ -20,6 +22,20 @@ nlohmann::json Domain::report() const {
 void Domain::sum(std::int64_t*, int) const {}
 void Domain::sum_wrapping(std::uint64_t*, int) const {}
 void Domain::max(double*, int) const {}
+
+void Domain::write_file(const std::string& path, const FilePieces& f) const {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(path + ": cannot open for writing");
+    out.write(f.head.data(), static_cast<std::streamsize>(f.head.size()));
+    for (std::size_t i = 0; i < f.gids.size(); ++i) {
+        out.seekp(static_cast<std::streamoff>(f.records_at + f.gids[i] * f.record));
+        out.write(f.records.data() + i * f.record, static_cast<std::streamsize>(f.record));
+    }
+    out.seekp(static_cast<std::streamoff>(f.tail_at));
+    out.write(f.tail.data(), static_cast<std::streamsize>(f.tail.size()));
+    out.flush();
+    if (!out) throw std::runtime_error(path + ": write failed (disk full?)");
+}
 
 std::vector<std::vector<char>> Domain::all_gather(const std::vector<char>& mine) const { return {mine}; }
 std::vector<std::vector<char>> Domain::gather(const std::vector<char>& mine) const { return {mine}; }

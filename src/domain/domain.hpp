@@ -28,6 +28,19 @@ class World;
 struct WarmImpulse;
 class CorrectionExchange;
 
+// One file written by every process together: the root's head at 0, fixed-
+// size records of bodies at records_at + gid * record (gids ascending), then
+// every process's tail, in rank order, from tail_at.
+struct FilePieces {
+    std::vector<char> head;  // root only
+    std::uint64_t records_at = 0;
+    std::size_t record = 0;
+    std::vector<std::uint32_t> gids;
+    std::vector<char> records;
+    std::uint64_t tail_at = 0;
+    std::vector<char> tail;
+};
+
 class Domain {
 public:
     virtual ~Domain() = default;
@@ -64,6 +77,9 @@ public:
     virtual void sum(std::int64_t* v, int n) const;
     virtual void sum_wrapping(std::uint64_t* v, int n) const;  // modulo 2^64
     virtual void max(double* v, int n) const;
+    // Collective: writes `pieces` of every process into one file (MPI-IO when
+    // distributed). Throws std::runtime_error naming the file on failure.
+    virtual void write_file(const std::string& path, const FilePieces& pieces) const;
     // Every process's bytes, in rank order: on every process (all) or on the
     // root only (others get an empty list).
     virtual std::vector<std::vector<char>> all_gather(const std::vector<char>& mine) const;

@@ -186,6 +186,7 @@ struct ParallelSpec {
 struct Scene {
     std::string name;
     std::string source;  // file it came from
+    std::uint64_t digest = 0;  // of the file's bytes and the overrides (checkpoints name their scene by it)
     std::uint64_t seed = 1;
     int steps = 1000;
     double dt = 0.005;

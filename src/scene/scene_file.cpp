@@ -5,10 +5,12 @@
 #include "scene/scene_file.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <sstream>
 
 #include "scene/generators.hpp"
 #include "scene/scene_checks.hpp"
+#include "util/hash.hpp"
 
 namespace parode {
 namespace {
@@ -302,9 +304,29 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
 
 }  // namespace
 
+namespace {
+
+// What a scene was made from: the file's bytes and every override, in order.
+std::uint64_t scene_digest(const std::string& text, const std::vector<std::string>& overrides) {
+    Fnv1a h;
+    h.add_bytes(text.data(), text.size());
+    for (const std::string& o : overrides) {
+        h.add(0xFFFFFFFFu);
+        h.add_bytes(o.data(), o.size());
+    }
+    return h.value();
+}
+
+}  // namespace
+
 Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
     toml::value data = parse_toml_file(path);
-    return build_scene(data, path, overrides);
+    Scene sc = build_scene(data, path, overrides);
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    sc.digest = scene_digest(text.str(), overrides);
+    return sc;
 }
 
 Scene load_scene_text(const std::string& text, const std::string& name,
@@ -318,7 +340,9 @@ Scene load_scene_text(const std::string& text, const std::string& name,
         const std::string at = line == 0 ? name : name + ":" + std::to_string(line);
         throw SceneError(at + ": TOML syntax error:\n" + std::string(e.what()));
     }
-    return build_scene(data, name, overrides);
+    Scene sc = build_scene(data, name, overrides);
+    sc.digest = scene_digest(text, overrides);
+    return sc;
 }
 
 }  // namespace parode

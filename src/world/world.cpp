@@ -203,6 +203,26 @@ void World::set_pose(std::size_t local, const double x[3], const double q[4]) {
     for (int k = 0; k < 4; ++k) q_in_[local][static_cast<std::size_t>(k)] = q[k];
 }
 
+bool World::restore_state(std::size_t local, const BodyState& s) {
+    set_state(local, s);
+    dBodyID b = bodies_[local];
+    auto exact = [b, &s] {
+        const dReal* q = dBodyGetQuaternion(b);
+        return q[0] == s.q[0] && q[1] == s.q[1] && q[2] == s.q[2] && q[3] == s.q[3];
+    };
+    for (int j = 1; j <= 16 && !exact(); ++j) {  // scale by 1 +- j ulp until ODE's normalisation lands on q
+        for (const double sign : {1.0, -1.0}) {
+            const double f = 1.0 + sign * j * 0x1.0p-52;
+            const double in[4] = {s.q[0] * f, s.q[1] * f, s.q[2] * f, s.q[3] * f};
+            set_pose(local, s.x, in);
+            if (exact()) return true;
+        }
+    }
+    if (exact()) return true;
+    set_state(local, s);
+    return false;
+}
+
 int World::material_of(std::uint32_t geom_id) const {
     if (geom_id < global_) {
         return geom_id < scene_.bodies.size() ? scene_.bodies[geom_id].material : scene_.catoms.proto.material;

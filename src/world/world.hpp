@@ -87,6 +87,11 @@ public:
     void set_state(std::size_t local, const BodyState& s);
     // Position and quaternion input, as the project's integrator sets them.
     void set_pose(std::size_t local, const double x[3], const double q[4]);
+    // Sets a body so that ODE's stored quaternion is exactly `q` (ODE
+    // normalises its input: inputs next to `q` are tried until one maps onto
+    // it). False when none did (the stored quaternion then differs from `q`
+    // in its last bits).
+    bool restore_state(std::size_t local, const BodyState& s);
 
     // Surface parameters for a contact between two materials (mixed once, cached).
     const dSurfaceParameters& surface(int a, int b) const;

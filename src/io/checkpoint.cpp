@@ -1,0 +1,168 @@
+// Checkpoint files (see checkpoint.hpp).
+#include "io/checkpoint.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+
+namespace parode {
+namespace {
+
+const char* kMagic = "parode-checkpoint 1 ";
+constexpr std::uint64_t kAlign = 4096;
+
+void pack_record(const World& world, std::size_t i, char* out) {
+    BodyState s = world.state(i);
+    const dReal* q = dBodyGetQuaternion(world.body(i));
+    for (int k = 0; k < 4; ++k) s.q[k] = q[k];  // what ODE holds, not the input it was given
+    double v[16];
+    std::copy(s.x, s.x + 3, v);
+    std::copy(s.q, s.q + 4, v + 3);
+    std::copy(s.v, s.v + 3, v + 7);
+    std::copy(s.w, s.w + 3, v + 10);
+    std::copy(world.origin(i).begin(), world.origin(i).end(), v + 13);
+    std::memcpy(out, v, kRecordBytes);
+}
+
+CheckpointRecord unpack_record(const char* in) {
+    double v[16];
+    std::memcpy(v, in, kRecordBytes);
+    CheckpointRecord r;
+    std::copy(v, v + 3, r.state.x);
+    std::copy(v + 3, v + 7, r.state.q);
+    std::copy(v + 7, v + 10, r.state.v);
+    std::copy(v + 10, v + 13, r.state.w);
+    std::copy(v + 13, v + 16, r.origin.begin());
+    return r;
+}
+
+void pack_impulse(const WarmImpulse& m, std::vector<char>& out) {
+    const std::size_t at = out.size();
+    out.resize(at + kImpulseBytes);
+    const std::uint32_t ids[3] = {m.lo, m.hi, m.index};
+    std::memcpy(out.data() + at, ids, sizeof ids);
+    std::memcpy(out.data() + at + sizeof ids, m.lambda, 3 * sizeof(double));
+}
+
+WarmImpulse unpack_impulse(const char* in) {
+    WarmImpulse m;
+    std::uint32_t ids[3];
+    std::memcpy(ids, in, sizeof ids);
+    m.lo = ids[0];
+    m.hi = ids[1];
+    m.index = ids[2];
+    std::memcpy(m.lambda, in + sizeof ids, 3 * sizeof(double));
+    return m;
+}
+
+std::vector<char> header(const nlohmann::json& meta, std::uint64_t& head_bytes) {
+    const std::string body = meta.dump() + "\n";
+    const std::size_t first = std::strlen(kMagic) + 13;  // magic, 12 digits, newline
+    head_bytes = (first + body.size() + kAlign - 1) / kAlign * kAlign;
+    char line[64];
+    std::snprintf(line, sizeof line, "%s%012llu\n", kMagic, static_cast<unsigned long long>(head_bytes));
+    std::string h = std::string(line) + body;
+    h.resize(head_bytes, ' ');
+    return std::vector<char>(h.begin(), h.end());
+}
+
+}  // namespace
+
+void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
+                      const std::vector<WarmImpulse>* warm, nlohmann::json meta) {
+    FilePieces f;
+    f.record = kRecordBytes;
+    std::vector<std::pair<std::uint32_t, std::size_t>> owned;
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) owned.emplace_back(world.gid(i), i);
+    }
+    std::sort(owned.begin(), owned.end());
+    f.records.resize(owned.size() * kRecordBytes);
+    for (std::size_t k = 0; k < owned.size(); ++k) {
+        f.gids.push_back(owned[k].first);
+        pack_record(world, owned[k].second, f.records.data() + k * kRecordBytes);
+    }
+    if (warm) {
+        for (const WarmImpulse& m : *warm) pack_impulse(m, f.tail);
+    }
+    const std::int64_t impulses = domain.sum(static_cast<std::int64_t>(f.tail.size() / kImpulseBytes));
+    meta["bodies"] = world.global_body_count();
+    meta["impulses"] = impulses;
+    meta["record_bytes"] = kRecordBytes;
+    meta["impulse_bytes"] = kImpulseBytes;
+    meta["written_by_ranks"] = domain.ranks();
+    std::uint64_t head_bytes = 0;
+    const std::vector<char> head = header(meta, head_bytes);
+    if (domain.root()) f.head = head;
+    f.records_at = head_bytes;
+    f.tail_at = head_bytes + world.global_body_count() * kRecordBytes;
+    domain.write_file(path, f);
+}
+
+Checkpoint read_checkpoint(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path + ": cannot open the checkpoint");
+    std::string line;
+    std::getline(in, line);
+    if (line.rfind(kMagic, 0) != 0) throw std::runtime_error(path + ": not a parode checkpoint (no '" + std::string(kMagic) + "' line)");
+    Checkpoint c;
+    c.path = path;
+    try {
+        c.head_bytes = std::stoull(line.substr(std::strlen(kMagic)));
+        std::string json;
+        std::getline(in, json);
+        c.meta = nlohmann::json::parse(json);
+        c.bodies = c.meta.at("bodies").get<std::uint64_t>();
+        c.impulses = c.meta.at("impulses").get<std::uint64_t>();
+        c.step = c.meta.at("step").get<long>();
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": damaged checkpoint header (" + e.what() + ")");
+    }
+    in.seekg(0, std::ios::end);
+    const auto size = static_cast<std::uint64_t>(in.tellg());
+    const std::uint64_t want = c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes;
+    if (size != want) {
+        throw std::runtime_error(path + ": truncated or damaged checkpoint (" + std::to_string(size) + " bytes, expected " +
+                                 std::to_string(want) + ")");
+    }
+    return c;
+}
+
+std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
+    std::ifstream in(c.path, std::ios::binary);
+    std::vector<CheckpointRecord> out;
+    out.reserve(gids.size());
+    char buf[kRecordBytes];
+    for (std::uint32_t g : gids) {
+        in.seekg(static_cast<std::streamoff>(c.head_bytes + g * kRecordBytes));
+        in.read(buf, kRecordBytes);
+        if (!in) throw std::runtime_error(c.path + ": cannot read the record of body " + std::to_string(g));
+        out.push_back(unpack_record(buf));
+    }
+    return out;
+}
+
+std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
+    std::ifstream in(c.path, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes));
+    std::vector<WarmImpulse> out;
+    std::vector<char> chunk(kImpulseBytes * 4096);
+    for (std::uint64_t left = c.impulses; left > 0;) {
+        const std::uint64_t n = std::min<std::uint64_t>(left, 4096);
+        in.read(chunk.data(), static_cast<std::streamsize>(n * kImpulseBytes));
+        if (!in) throw std::runtime_error(c.path + ": cannot read the warm-start impulses");
+        for (std::uint64_t k = 0; k < n; ++k) {
+            const WarmImpulse m = unpack_impulse(chunk.data() + k * kImpulseBytes);
+            if (std::binary_search(gids.begin(), gids.end(), m.lo)) out.push_back(m);
+        }
+        left -= n;
+    }
+    std::sort(out.begin(), out.end(), [](const WarmImpulse& a, const WarmImpulse& b) {
+        return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
+    });
+    return out;
+}
+
+}  // namespace parode

@@ -1,0 +1,58 @@
+// Checkpoints: everything the next step depends on, so that a run restarted
+// from step k gives the state of an uninterrupted run bit for bit, on any
+// number of processes. Layout of a file:
+//   "parode-checkpoint 1 <head bytes>\n" + JSON metadata, padded with spaces
+//     to a multiple of 4 KiB (step, time, the scene's name and digest, ODE's
+//     dRand state, run totals, guard and checks state, counts);
+//   one 128-byte record per body, in global-id order: position, ODE's stored
+//     quaternion, linear and angular velocity, initial position (16 doubles);
+//   the warm-start impulses of the contact solver, 36 bytes each (lo, hi,
+//     index, three impulses), grouped by the process that wrote them.
+// Every process writes its owned bodies' records in place (MPI-IO, by gid)
+// and its impulses after them; a restarting process reads the records of the
+// ids it builds and the impulses of those bodies, with plain file reads.
+// Trade-off: fixed-size records by gid make the body part identical for any
+// writer and let any reader pick its ids without an index; every reader
+// scans all impulses (about 60 bytes a catom) to find its own.
+#pragma once
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "domain/domain.hpp"
+#include "solve/contact_solver.hpp"
+#include "world/world.hpp"
+
+namespace parode {
+
+struct CheckpointRecord {
+    BodyState state;  // q: ODE's stored quaternion
+    Vec3 origin;
+};
+constexpr std::size_t kRecordBytes = 16 * sizeof(double);
+constexpr std::size_t kImpulseBytes = 3 * sizeof(std::uint32_t) + 3 * sizeof(double);
+
+struct Checkpoint {
+    std::string path;
+    nlohmann::json meta;
+    std::uint64_t head_bytes = 0;
+    std::uint64_t bodies = 0;
+    std::uint64_t impulses = 0;
+    long step = 0;
+};
+
+// Collective: writes every process's owned bodies and impulses, with `meta`
+// (the root's) completed by counts. Throws std::runtime_error naming the file.
+void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
+                      const std::vector<WarmImpulse>* warm, nlohmann::json meta);
+// The header of a checkpoint. Throws std::runtime_error naming the file and
+// what is wrong with it.
+Checkpoint read_checkpoint(const std::string& path);
+// The records of `gids` (ascending).
+std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
+// The impulses whose lower body is one of `gids` (ascending), sorted.
+std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
+
+}  // namespace parode
