@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "io/output_error.hpp"  // write_trajectory throws it
 #include "run/diagnostics.hpp"
 #include "scene/scene.hpp"
 #include "world/world.hpp"

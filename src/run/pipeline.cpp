@@ -25,7 +25,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     }
     if (stage(Stage::Output).enabled) {
         snapshot_.open(options.snapshot_path);
-        if (!snapshot_) throw std::runtime_error(options.snapshot_path + ": cannot open snapshot file for writing");
+        if (!snapshot_) throw OutputError(options.snapshot_path + ": cannot open snapshot file for writing");
         snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
         snapshot_every_ = options.snapshot_every;
     }

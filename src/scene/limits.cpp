@@ -1,0 +1,72 @@
+// Scene-wide magnitude checks (see limits.hpp for the bounds and why).
+// Trade-off: these run after the bodies exist (one pass over them), because a
+// mass ratio or a prism's extent is not a property of any single key.
+#include "scene/limits.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace parode::limits {
+namespace {
+
+std::string num(double x) {
+    std::ostringstream os;
+    os << x;
+    return os.str();
+}
+
+// The table that declared body `i`: its [[bodies]] entry or the [catoms] table.
+Node body_table(const Node& root, std::size_t i, std::size_t hand_written) {
+    return i < hand_written ? root.at("bodies").index(i) : root.at("catoms");
+}
+
+std::string body_label(const Scene& sc, std::size_t i, std::size_t hand_written) {
+    if (i >= hand_written) return "the catoms";
+    return "bodies[" + std::to_string(i) + "] '" + sc.bodies[i].name + "'";
+}
+
+}  // namespace
+
+std::string coordinate_text() {
+    return "an array of 3 numbers, each in [-" + num(kMaxCoordinate) + ", " + num(kMaxCoordinate) + "] (m)";
+}
+
+std::string speed_text(double dt) {
+    return "an array of 3 numbers of length <= " + num(max_speed(dt)) + " (m/s: at most " + num(kMaxStepTravel) +
+           " m per step of dt = " + num(dt) + " s)";
+}
+
+std::string turn_rate_text(double dt) {
+    return "an array of 3 numbers of length <= " + num(max_turn_rate(dt)) + " (rad/s: at most one revolution per step of dt = " +
+           num(dt) + " s)";
+}
+
+void check_mass_ratio(const Node& root, const Scene& sc, std::size_t hand_written) {
+    if (sc.bodies.empty()) return;
+    std::size_t light = 0, heavy = 0;
+    for (std::size_t i = 1; i < sc.bodies.size(); ++i) {
+        if (sc.bodies[i].mass < sc.bodies[light].mass) light = i;
+        if (sc.bodies[i].mass > sc.bodies[heavy].mass) heavy = i;
+    }
+    const double lo = sc.bodies[light].mass, hi = sc.bodies[heavy].mass;
+    if (hi <= kMaxMassRatio * lo) return;
+    body_table(root, heavy, hand_written)
+        .fail_value("mass", "a mass at most " + num(kMaxMassRatio) + " times the lightest body's (" +
+                                body_label(sc, light, hand_written) + ", " + num(lo) + " kg)",
+                    num(hi));
+}
+
+void check_catom_extent(const Node& root, const Scene& sc, std::size_t hand_written) {
+    double reach = 0;
+    for (std::size_t i = hand_written; i < sc.bodies.size(); ++i) {
+        for (double c : sc.bodies[i].position) reach = std::max(reach, std::fabs(c));
+    }
+    if (reach <= kMaxCoordinate) return;
+    root.at("catoms").fail_value("spacing",
+                                 "a prism inside the coordinate bound (|x|, |y|, |z| <= " + num(kMaxCoordinate) +
+                                     " m)",
+                                 "a prism of " + std::to_string(sc.bodies.size() - hand_written) +
+                                     " catoms that reaches " + num(reach) + " m");
+}
+
+}  // namespace parode::limits
