@@ -41,6 +41,15 @@ std::string turn_rate_text(double dt) {
            num(dt) + " s)";
 }
 
+Range joint_param_range(const std::string& name) {
+    std::string base = name;
+    if (!base.empty() && (base.back() == '2' || base.back() == '3')) base.pop_back();
+    if (base == "vel") return {-kMaxMotorSpeed, kMaxMotorSpeed};
+    if (base == "fmax") return {0, Node::kInf};
+    if (base == "lo_stop" || base == "hi_stop") return {-Node::kInf, Node::kInf};
+    return {0, 1};  // erp, stop_erp, suspension_erp, cfm, stop_cfm, suspension_cfm, bounce, fudge_factor
+}
+
 void check_mass_ratio(const Node& root, const Scene& sc, std::size_t hand_written) {
     if (sc.bodies.empty()) return;
     std::size_t light = 0, heavy = 0;

@@ -52,6 +52,20 @@ constexpr double kMaxMotorSpeed = 1e4;
 // (1 s) it adds at most the speed bound of a 10 ms step each step.
 constexpr double kMaxGravity = 1e3;
 
+// The run guard stops a body faster than the speed bound (guard.max_speed
+// defaults to it and may only be lower), so a run that explodes stops with
+// exit 1 before its bodies leave the coordinates ODE can index.
+
+// Joint parameters (scene name without its 2/3 axis suffix): ERPs, bounce and
+// fudge factor in [0, 1] as ODE defines them; CFMs in [0, 1] like the world's
+// (a negative CFM makes ODE's system indefinite; suspension_erp = 1e7 made the
+// buggy's wheels leave ODE's range within 5 steps); fmax >= 0; motor speeds
+// within kMaxMotorSpeed; stops any finite angle.
+struct Range {
+    double lo, hi;
+};
+Range joint_param_range(const std::string& name);
+
 // Largest linear and angular speed (m/s, rad/s) allowed at time step dt.
 inline double max_speed(double dt) { return kMaxStepTravel / dt; }
 inline double max_turn_rate(double dt) { return kMaxStepTurn / dt; }

@@ -27,6 +27,12 @@ Vec3 unit_vector(const Node& t, const std::string& key, const Vec3& def) {
     return v;
 }
 
+// Unit vectors less than 1e-6 rad apart (or opposite).
+bool parallel(const Vec3& a, const Vec3& b) {
+    const Vec3 c{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    return std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) < 1e-6;
+}
+
 Quat read_rotation(const Node& t) {
     if (!t.has("rotation")) return Quat{1, 0, 0, 0};
     const Node r = t.at("rotation");
@@ -205,9 +211,8 @@ void read_joint_params(const Node& t, JointSpec& j) {
             throw SceneError(where(kv.second) + ": unknown joint parameter '" + p.key_path(kv.first) +
                              "' (expected one of: " + joint_param_names() + ")");
         }
-        const bool motor_speed = kv.first.rfind("vel", 0) == 0;
-        const double bound = motor_speed ? limits::kMaxMotorSpeed : Node::kInf;
-        j.params.emplace_back(kv.first, p.number_required(kv.first, -bound, bound));
+        const limits::Range r = limits::joint_param_range(kv.first);
+        j.params.emplace_back(kv.first, p.number_required(kv.first, r.lo, r.hi));
     }
 }
 
@@ -231,6 +236,9 @@ void read_joints(const Node& root, Scene& sc) {
         j.anchor = t.vec3("anchor", j.anchor, limits::kMaxCoordinate, limits::coordinate_text());
         j.axis1 = joint_axis(t, "axis1", j.axis1);
         j.axis2 = joint_axis(t, "axis2", j.axis2);
+        if (j.kind == JointKind::Hinge2 && parallel(unit_vector(t, "axis1", j.axis1), unit_vector(t, "axis2", j.axis2))) {
+            t.fail("axis2", "a vector not parallel to axis1 (ODE's hinge2 needs two independent axes)");
+        }
         read_joint_params(t, j);
         sc.joints.push_back(j);
     }
@@ -308,6 +316,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     if (sc.bodies.empty()) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     limits::check_mass_ratio(root, sc, hand_written);
     limits::check_catom_extent(root, sc, hand_written);
+    sc.guard.max_speed = limits::max_speed(sc.dt);  // [guard] max_speed may lower it
     read_guard(root, sc.guard);
     read_checks(root, sc);
     return sc;

@@ -25,7 +25,14 @@ std::string describe(const toml::value& v) {
         case toml::value_t::table: return "a table";
         case toml::value_t::array: {
             const std::size_t n = v.as_array().size();
-            return "an array of " + std::to_string(n) + (n == 1 ? " element" : " elements");
+            std::string s = "an array of " + std::to_string(n) + (n == 1 ? " element" : " elements");
+            if (n == 0 || n > 4) return s;
+            for (std::size_t i = 0; i < n; ++i) {
+                const toml::value& e = v.as_array()[i];
+                const bool scalar = e.is_integer() || e.is_floating() || e.is_boolean();
+                s += (i ? ", " : " [") + (scalar ? describe(e) : "...");
+            }
+            return s + "]";
         }
         case toml::value_t::string: return "the string \"" + v.as_string().str + "\"";
         case toml::value_t::boolean: return v.as_boolean() ? "true" : "false";
