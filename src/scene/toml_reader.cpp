@@ -30,7 +30,8 @@ std::string describe(const toml::value& v) {
             for (std::size_t i = 0; i < n; ++i) {
                 const toml::value& e = v.as_array()[i];
                 const bool scalar = e.is_integer() || e.is_floating() || e.is_boolean();
-                s += (i ? ", " : " [") + (scalar ? describe(e) : "...");
+                const std::string text = e.is_string() ? "\"" + e.as_string().str + "\"" : scalar ? describe(e) : "...";
+                s += (i ? ", " : " [") + text;
             }
             return s + "]";
         }
