@@ -58,6 +58,10 @@ int checks_exit_code(const nlohmann::json& report);
 nlohmann::json compare_with_reference(const parode::Trajectory& run, const std::string& reference_path,
                                       const nlohmann::json& run_report);
 
+// ODE's error and debug handlers: print ODE's message and exit with
+// kExitSimulation instead of aborting (ode_handlers.cpp).
+void install_ode_handlers();
+
 // `parode --version`: version, commit, ODE, OpenMP and MPI.
 std::string version_text();
 

@@ -151,6 +151,7 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
 int main(int argc, char** argv) {
     using namespace parode::cli;
     parode::omp::register_backends();
+    install_ode_handlers();
     CLI::App app{"parode: parallel rigid-body simulation on ODE (see README.md)"};
     app.set_version_flag("--version", version_text(), "Print the version, git commit, ODE, OpenMP and MPI, and exit");
     app.require_subcommand(1);

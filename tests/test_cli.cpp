@@ -9,6 +9,7 @@
 // few seconds.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <ode/ode.h>
 #include <pty.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -425,6 +426,28 @@ TEST(Guarded, EachExceptionTypeHasItsExitCode) {
         EXPECT_EQ(err.str().rfind(c.message, 0), 0u) << err.str();
     }
     EXPECT_EQ(parode::cli::kExitInterrupted, 7) << "reserved, documented in README and main.cpp";
+}
+
+// An ODE internal check that a scene still reaches ends the process with the
+// simulation-failed code and ODE's message, not SIGABRT (in a child process:
+// the handler exits).
+TEST(OdeHandlers, InternalCheckExits1WithOdesMessage) {
+    const fs::path err = fs::temp_directory_path() / ("parode_ode_handler_" + std::to_string(::getpid()));
+    const pid_t pid = fork();
+    if (pid == 0) {
+        if (!std::freopen(err.c_str(), "w", stderr)) _exit(99);
+        parode::cli::install_ode_handlers();
+        dDebug(1, "assertion \"%s\" failed", "aabbBound < dMaxIntExact");
+        _exit(98);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    const std::string msg = slurp(err);
+    fs::remove(err);
+    ASSERT_TRUE(WIFEXITED(status)) << "signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 1) << msg;
+    EXPECT_EQ(msg.rfind("parode: simulation failed: ODE stopped on an internal check (1: assertion \"aabbBound < "
+                        "dMaxIntExact\" failed)", 0), 0u) << msg;
 }
 
 TEST_F(Cli, StateHashIsReproducibleAndSeeded) {

@@ -5,11 +5,13 @@
 // Every outcome must be a clean exit: 0 (or 5, a hard case's [checks] failing)
 // with finite diagnostics in the report; 3 with a scene error naming the file;
 // 1 with the guard's message; 6 with a memory message. A signal, another
-// code, a hang or a report with non-finite numbers fails the test, which keeps
-// the mutated file and prints how to reproduce it.
-// Trade-off: a process per case (about 20 ms) tests what a user meets, exit
+// code, a hang, a report with non-finite numbers or an ODE assertion (which
+// the command line turns into exit 1: the reader should have refused the
+// scene) fails the test, which keeps the mutated file and prints how to
+// reproduce it.
+// Trade-off: a process per case (about 10 ms) tests what a user meets, exit
 // codes included, and survives crashes; catom prisms are cut to 64 so that
-// 600 cases take about 15 s. PARODE_FUZZ_CASES and PARODE_FUZZ_SEED change
+// 2,500 cases take about 20 s. PARODE_FUZZ_CASES and PARODE_FUZZ_SEED change
 // the count and the seed.
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -289,6 +291,9 @@ std::string classify(const Outcome& o, const std::string& file, const fs::path& 
             return o.code == 0 ? "0 ok" : "5 checks failed";
         }
         case 1:
+            if (o.err.find("ODE stopped on an internal check") != std::string::npos) {
+                return "BAD: the scene passed the reader but reached an ODE assertion";
+            }
             return o.err.find("parode: simulation failed: ") != std::string::npos ? "1 simulation failed"
                                                                                    : "BAD: exit 1 without the guard's message";
         case 3:
@@ -304,7 +309,7 @@ std::string classify(const Outcome& o, const std::string& file, const fs::path& 
 }
 
 TEST(SceneFuzz, EveryMutationEndsInACleanExit) {
-    const long cases = env_long("PARODE_FUZZ_CASES", 1000);
+    const long cases = env_long("PARODE_FUZZ_CASES", 2500);
     const auto seed = static_cast<std::uint64_t>(env_long("PARODE_FUZZ_SEED", 20240611));
     const fs::path dir = fs::temp_directory_path() / ("parode_fuzz_" + std::to_string(::getpid()));
     fs::create_directories(dir);
