@@ -48,8 +48,8 @@ constexpr double kMaxStepTravel = 10;
 constexpr double kMaxStepTurn = 6.283185307179586;
 constexpr double kMaxMotorSpeed = 1e4;
 
-// Gravity: |g| <= 1e3 m/s^2, about 100 times the Earth's; at the largest dt
-// (1 s) it adds at most the speed bound of a 10 ms step each step.
+// Gravity: |g| <= 1e3 m/s^2, about 100 times the Earth's. 9.2e18 m/s^2 moves
+// a body out of ODE's coordinate range in the first step.
 constexpr double kMaxGravity = 1e3;
 
 // The run guard stops a body faster than the speed bound (guard.max_speed
