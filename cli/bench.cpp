@@ -17,6 +17,7 @@
 
 #include "cli_common.hpp"
 #include "grid_collide.hpp"
+#include "io/output_error.hpp"
 #include "util/hash.hpp"
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
@@ -43,10 +44,9 @@ double peak_rss_mb() {
 Variant make_variant(const Scene& scene, const std::string& spec) {
     Variant v;
     v.label = spec;
-    const auto colon = spec.find(':');
-    const std::string name = spec.substr(0, colon);
+    const auto [name, threads] = split_threads(spec);
     v.backend = BackendRegistry::instance().make(name);
-    v.backend->set_threads(colon == std::string::npos ? 1 : std::stoi(spec.substr(colon + 1)));
+    v.backend->set_threads(threads);
     v.world = std::make_unique<World>(scene, v.backend->space_kind());
     v.backend->set_geoms(v.world->space(), &v.world->geoms());  // as the pipeline does
     return v;
@@ -126,7 +126,7 @@ void print_table(const Scene& scene, const std::vector<Variant>& vars, bool iden
 
 void write_csv(const std::string& path, const Scene& scene, const std::vector<Variant>& vars) {
     std::ofstream out(path);
-    if (!out) throw std::runtime_error(path + ": cannot open CSV file for writing");
+    if (!out) throw OutputError(path + ": cannot open CSV file for writing");
     out << "scene,bodies,variant,median_s,speedup_vs_first,contacts,rss_mb\n";
     const double base = median(vars[0].seconds);
     for (const auto& v : vars) {
@@ -134,10 +134,11 @@ void write_csv(const std::string& path, const Scene& scene, const std::vector<Va
         out << scene.name << ',' << scene.body_count() << ',' << v.label << ',' << m << ',' << (m > 0 ? base / m : 0)
             << ',' << v.contacts << ',' << v.rss_mb << '\n';
     }
+    if (!out) throw OutputError(path + ": error while writing the CSV file");
 }
 
 int bench_collide(const BenchArgs& a) {
-    const Scene scene = load_scene(a.scene, a.sets);
+    const Scene scene = load_bench_scene(a, static_cast<int>(a.backends.size()) + 1);
     std::vector<Variant> vars;
     for (const auto& spec : a.backends) vars.push_back(make_variant(scene, spec));
     RunOptions opt;
@@ -155,6 +156,22 @@ int bench_collide(const BenchArgs& a) {
 
 }  // namespace
 
+Scene load_bench_scene(const BenchArgs& a, int pipelines) {
+    check_output_path("--csv", a.csv);
+    if (a.backends.empty()) throw std::invalid_argument("--backends: expected at least one variant");
+    for (const auto& spec : a.backends) split_threads(spec);  // fails early on a bad THREADS
+    return load_scene(a.scene, a.sets, memory_guard([&a, pipelines](const Scene& sc) {
+        RunShape shape;
+        shape.collide = a.reference_iterations > 0 ? "ode-hash" : "";  // bench step's reference
+        for (const auto& spec : a.backends) {
+            if (spec.rfind("ode-hash", 0) == 0) shape.collide = "ode-hash";  // the largest: counts for every world
+        }
+        shape.steps = a.steps > 0 ? a.steps : sc.steps;
+        shape.pipelines = pipelines;
+        return shape;
+    }));
+}
+
 void add_bench(CLI::App& app, BenchArgs& a, std::function<int()>& action) {
     CLI::App* b = app.add_subcommand("bench", "Benchmark a stage of several implementations side by side");
     b->add_option("what", a.what, "collide: the collide stage on identical states; step: whole steps")
@@ -166,11 +183,15 @@ void add_bench(CLI::App& app, BenchArgs& a, std::function<int()>& action) {
                   "Variants; collide: NAME[:THREADS], the first drives the scene; step: COLLIDE[/SOLVER][:THREADS]; "
                   "the first is the baseline")
         ->delimiter(',')->capture_default_str();
-    b->add_option("--steps", a.steps, "Steps to advance the scene (samples along the way)")->check(CLI::NonNegativeNumber);
-    b->add_option("--reference-iterations", a.reference_iterations, "step: also run ode-hash/ode with this many iterations as the error reference");
-    b->add_option("--error-at", a.error_at, "step: steps after which the RMS position error is taken")->capture_default_str();
-    b->add_option("--every", a.every, "collide: sample every N steps; step: steps per turn")->check(CLI::PositiveNumber)->capture_default_str();
-    b->add_option("--repeats", a.repeats, "Timings per variant per sample")->check(CLI::PositiveNumber)->capture_default_str();
+    b->add_option("--steps", a.steps, "Steps to advance the scene (samples along the way)")->check(int_in(0, kMaxSteps));
+    b->add_option("--reference-iterations", a.reference_iterations,
+                  "step: also run ode-hash/ode with this many iterations as the error reference")
+        ->check(int_in(0, 100000));
+    b->add_option("--error-at", a.error_at, "step: steps after which the RMS position error is taken")
+        ->check(int_in(1, kMaxSteps))->capture_default_str();
+    b->add_option("--every", a.every, "collide: sample every N steps; step: steps per turn")
+        ->check(int_in(1, kMaxSteps))->capture_default_str();
+    b->add_option("--repeats", a.repeats, "Timings per variant per sample")->check(int_in(1, 1000000))->capture_default_str();
     b->add_option("--csv", a.csv, "Also write the table as CSV");
     b->callback([&] { action = [&] { return a.what == "step" ? bench_step(a) : bench_collide(a); }; });
 }

@@ -15,6 +15,7 @@
 #include <iostream>
 
 #include "cli_common.hpp"
+#include "io/output_error.hpp"
 #include "run/pipeline.hpp"
 #include "register.hpp"
 #include "scene/scene_file.hpp"
@@ -33,12 +34,8 @@ struct StepVariant {
 StepVariant parse_variant(const std::string& spec) {
     StepVariant v;
     v.label = spec;
-    std::string s = spec;
-    const auto colon = s.find(':');
-    if (colon != std::string::npos) {
-        v.threads = std::stoi(s.substr(colon + 1));
-        s = s.substr(0, colon);
-    }
+    auto [s, threads] = split_threads(spec);
+    v.threads = threads;
     const auto slash = s.find('/');
     v.collide = s.substr(0, slash);
     v.solver = slash == std::string::npos ? "ode" : s.substr(slash + 1);
@@ -91,10 +88,30 @@ void print_step_table(const Scene& sc, int steps, std::vector<StepVariant>& vars
     }
 }
 
+// Turn sizes: --every steps, but a turn ends at exactly step --error-at when a
+// reference is there, so the error is taken at that step whatever --every is.
+int turn_length(const BenchArgs& a, int done, int steps, bool reference) {
+    int n = std::min(a.every, steps - done);
+    if (reference && done < a.error_at) n = std::min(n, a.error_at - done);
+    return n;
+}
+
+void write_step_csv(const BenchArgs& a, const Scene& scene, int steps, const std::vector<StepVariant>& vars) {
+    std::ofstream out(a.csv);
+    if (!out) throw OutputError(a.csv + ": cannot open CSV file for writing");
+    out << "scene,bodies,steps,variant,ms_per_step,collide_ms,solve_ms,speedup_vs_first,rms_at,error_at\n";
+    for (const auto& v : vars) {
+        out << scene.name << ',' << scene.bodies.size() << ',' << steps << ',' << v.label << ',' << 1e3 * v.seconds / steps
+            << ',' << 1e3 * v.p->stage(Stage::Collide).seconds / steps << ',' << 1e3 * v.p->stage(Stage::Solve).seconds / steps
+            << ',' << vars[0].seconds / v.seconds << ',' << v.rms_at << ',' << a.error_at << '\n';
+    }
+    if (!out) throw OutputError(a.csv + ": error while writing the CSV file");
+}
+
 }  // namespace
 
 int bench_step(const BenchArgs& a) {
-    const Scene scene = load_scene(a.scene, a.sets);
+    const Scene scene = load_bench_scene(a, static_cast<int>(a.backends.size()) + (a.reference_iterations > 0 ? 1 : 0));
     std::vector<StepVariant> vars;
     for (const auto& spec : a.backends) {
         vars.push_back(parse_variant(spec));
@@ -104,9 +121,13 @@ int bench_step(const BenchArgs& a) {
     ref_scene.solver.iterations = a.reference_iterations;
     std::unique_ptr<Pipeline> ref;
     if (a.reference_iterations > 0) ref = make_pipeline(ref_scene, "ode-hash", "ode", 1);
-    const int steps = a.steps > 0 ? a.steps : scene.steps, chunk = a.every;
+    const int steps = a.steps > 0 ? a.steps : scene.steps;
+    if (ref && a.error_at > steps) {
+        throw std::invalid_argument("--error-at " + std::to_string(a.error_at) + " is past the last step (" +
+                                    std::to_string(steps) + ")");
+    }
     for (int done = 0; done < steps;) {
-        const int n = std::min(chunk, steps - done);
+        const int n = turn_length(a, done, steps, ref != nullptr);
         for (auto& v : vars) advance(v, n);
         if (ref) {
             parode::omp::set_threads(1);
@@ -119,16 +140,7 @@ int bench_step(const BenchArgs& a) {
     }
     if (ref) ref->finish();
     print_step_table(scene, steps, vars, ref.get(), a.error_at, std::cout);
-    if (!a.csv.empty()) {
-        std::ofstream out(a.csv);
-        if (!out) throw std::runtime_error(a.csv + ": cannot open CSV file for writing");
-        out << "scene,bodies,steps,variant,ms_per_step,collide_ms,solve_ms,speedup_vs_first,rms_at,error_at\n";
-        for (const auto& v : vars) {
-            out << scene.name << ',' << scene.body_count() << ',' << steps << ',' << v.label << ',' << 1e3 * v.seconds / steps
-                << ',' << 1e3 * v.p->stage(Stage::Collide).seconds / steps << ',' << 1e3 * v.p->stage(Stage::Solve).seconds / steps
-                << ',' << vars[0].seconds / v.seconds << ',' << v.rms_at << ',' << a.error_at << '\n';
-        }
-    }
+    if (!a.csv.empty()) write_step_csv(a, scene, steps, vars);
     return 0;
 }
 

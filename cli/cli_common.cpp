@@ -2,25 +2,81 @@
 #include "cli_common.hpp"
 #include "processes.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <new>
+#include <sstream>
 
 #include "collide/collide.hpp"
 #include "io/error_metrics.hpp"
+#include "io/output_error.hpp"
+#include "progress.hpp"
+#include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
 
 namespace parode::cli {
 
+namespace {
+
+std::string text(double x) {
+    std::ostringstream os;
+    os << x;
+    return os.str();
+}
+
+// Whole-string integer parse: "12" yes; "12abc", "1.5", "" no.
+bool parse_long(const std::string& s, long& out) {
+    if (s.empty()) return false;
+    errno = 0;
+    char* end = nullptr;
+    out = std::strtol(s.c_str(), &end, 10);
+    return errno == 0 && end == s.c_str() + s.size();
+}
+
+}  // namespace
+
+CLI::Validator int_in(long lo, long hi) {
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& s) -> std::string {
+            long v = 0;
+            if (parse_long(s, v) && v >= lo && v <= hi) return "";
+            return "expected an integer in " + range + ", got '" + s + "'";
+        },
+        "INT in " + range);
+}
+
+CLI::Validator number_in(double lo, double hi) {
+    const std::string range = "[" + text(lo) + ", " + text(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& s) -> std::string {
+            char* end = nullptr;
+            errno = 0;
+            const double v = std::strtod(s.c_str(), &end);
+            const bool whole = !s.empty() && end == s.c_str() + s.size() && errno == 0;
+            if (whole && std::isfinite(v) && v >= lo && v <= hi) return "";
+            return "expected a number in " + range + ", got '" + s + "'";
+        },
+        "NUMBER in " + range);
+}
+
 int resolve_threads(int requested) {
     if (requested > 0) return requested;
-    if (const char* env = std::getenv("OMP_NUM_THREADS")) {
-        const int n = std::atoi(env);
-        if (n > 0) return n;
+    const char* env = std::getenv("OMP_NUM_THREADS");
+    if (!env || !*env) return 1;
+    const std::string first = std::string(env).substr(0, std::string(env).find(','));  // "4,2": nested levels
+    long n = 0;
+    if (!parse_long(first, n) || n < 1 || n > kMaxThreads) {
+        throw std::invalid_argument("OMP_NUM_THREADS=" + std::string(env) + ": expected an integer in [1, " +
+                                    std::to_string(kMaxThreads) + "] (or pass --threads)");
     }
-    return 1;
+    return static_cast<int>(n);
 }
 
 std::string backend_list() {
@@ -35,15 +91,54 @@ std::string solver_list() {
     return out;
 }
 
+void check_output_path(const std::string& option, const std::string& path) {
+    if (path.empty()) return;
+    namespace fs = std::filesystem;
+    const auto fail = [&](const std::string& why) {
+        throw OutputError(option + " " + path + ": cannot write there: " + why);
+    };
+    std::error_code ec;
+    const fs::path p(path);
+    if (fs::is_directory(p, ec)) fail("it is a directory");
+    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    if (!fs::exists(dir, ec)) fail("the directory " + dir.string() + " does not exist");
+    if (!fs::is_directory(dir, ec)) fail(dir.string() + " is not a directory");
+    const bool existed = fs::exists(p, ec);
+    {
+        std::ofstream probe(path, std::ios::app);  // appends nothing to an existing file
+        if (!probe) fail(std::strerror(errno));
+    }
+    if (!existed) fs::remove(p, ec);
+}
+
+std::pair<std::string, int> split_threads(const std::string& spec) {
+    const auto colon = spec.find(':');
+    if (colon == std::string::npos) return {spec, 1};
+    long n = 0;
+    if (!parse_long(spec.substr(colon + 1), n) || n < 1 || n > kMaxThreads) {
+        throw std::invalid_argument("--backends " + spec + ": expected NAME:THREADS with THREADS an integer in [1, " +
+                                    std::to_string(kMaxThreads) + "]");
+    }
+    return {spec.substr(0, colon), static_cast<int>(n)};
+}
+
+BeforeCatoms memory_guard(std::function<RunShape(const Scene&)> shape_of) {
+    return [shape_of](const Scene& so_far, const CatomPlan& catoms) {
+        require_memory(estimate_memory(scene_size(so_far, catoms), shape_of(so_far)), available_memory());
+    };
+}
+
 namespace {
 
-// Every process meets a collective failure at the same point: the root
-// reports it and all return its code. Any other failure may be this
-// process's alone: it reports and ends every process.
-int fail(int code, const std::string& message, bool collective) {
+// A collective failure (every process meets it at the same point: a scene
+// error, the guard, a bad option) is reported by the root, and every process
+// returns its code. Any other may be this process's alone: it reports with
+// its rank and ends every process, so none waits forever for it.
+int report_failure(int code, const std::string& message, bool collective = true) {
     const Processes* procs = Processes::current();
     const bool many = procs && procs->size() > 1;
     if (!many || !collective || procs->root()) {
+        end_progress_line();
         std::cerr << "parode: " << (many && !collective ? "rank " + std::to_string(procs->rank()) + ": " : "") << message
                   << "\n";
     }
@@ -57,20 +152,34 @@ int guarded(const std::function<int()>& action) {
     try {
         return action ? action() : 0;
     } catch (const SceneError& e) {
-        return fail(kExitScene, std::string("scene error: ") + e.what(), true);
+        return report_failure(kExitScene, std::string("scene error: ") + e.what());
     } catch (const SimulationError& e) {
-        return fail(kExitSimulation, std::string("simulation failed: ") + e.what(), true);
+        return report_failure(kExitSimulation, std::string("simulation failed: ") + e.what());
+    } catch (const OutputError& e) {
+        return report_failure(kExitOutput, std::string("cannot write output: ") + e.what(), false);
+    } catch (const MemoryError& e) {
+        return report_failure(kExitMemory, std::string("not enough memory: ") + e.what(), false);
+    } catch (const std::bad_alloc&) {
+        return report_failure(kExitMemory, "out of memory: an allocation failed (std::bad_alloc); the run needs "
+                                           "more memory than this machine gives it: use fewer catoms or a larger "
+                                           "machine",
+                              false);
     } catch (const std::invalid_argument& e) {
-        return fail(kExitUsage, e.what(), true);
+        return report_failure(kExitUsage, e.what());
     } catch (const std::exception& e) {
-        return fail(kExitOutput, e.what(), false);
+        return report_failure(kExitInternal,
+                              std::string("internal error (a bug in parode; please report it with the command line): ") +
+                                  e.what(),
+                              false);
+    } catch (...) {
+        return report_failure(kExitInternal, "internal error (a bug in parode): an exception of unknown type", false);
     }
 }
 
 void write_json(const std::string& path, const nlohmann::json& j) {
     std::ofstream out(path);
     out << j.dump(2) << '\n';
-    if (!out) throw std::runtime_error(path + ": cannot write");
+    if (!out) throw OutputError(path + ": cannot write");
 }
 
 int checks_exit_code(const nlohmann::json& report, bool print) {
@@ -137,7 +246,11 @@ nlohmann::json compare_with_reference(const parode::Trajectory& run, const std::
     if (!ref.contains("diagnostics") || !ref.contains("steps")) {
         throw std::invalid_argument(path + ": a JSON file but not a parode run report (no 'diagnostics')");
     }
-    return compare_reports(run_report, ref, path);
+    try {
+        return compare_reports(run_report, ref, path);
+    } catch (const nlohmann::json::exception& e) {
+        throw std::invalid_argument(path + ": not a complete parode run report (" + e.what() + ")");
+    }
 }
 
 }  // namespace parode::cli

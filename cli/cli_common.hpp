@@ -1,7 +1,9 @@
-// Shared pieces of the command line: exit codes, thread resolution, the error
-// guard that turns exceptions into messages and exit codes, and subcommands
-// defined in their own files.
-// Trade-off: exceptions carry the message; only this guard decides exit codes.
+// Shared pieces of the command line: exit codes, validators, thread and output
+// path checks, the error guard that turns exceptions into messages and exit
+// codes, and subcommands defined in their own files.
+// Trade-off: exceptions carry the message and their type carries the exit
+// code; only the guard maps one to the other, so no command prints its own
+// failures or picks its own code.
 #pragma once
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -10,26 +12,59 @@
 #include <string>
 
 #include "io/trajectory.hpp"
+#include "run/memory_estimate.hpp"
+#include "scene/scene_file.hpp"
 
 namespace parode::cli {
 
-constexpr int kExitSimulation = 1;
-constexpr int kExitUsage = 2;
-constexpr int kExitScene = 3;
-constexpr int kExitOutput = 4;
-constexpr int kExitChecks = 5;
+// Exit codes (README "Exit codes"; the same list opens main.cpp).
+constexpr int kExitSimulation = 1;    // SimulationError: the guard stopped the run
+constexpr int kExitUsage = 2;         // CLI11 parse errors, std::invalid_argument
+constexpr int kExitScene = 3;         // SceneError
+constexpr int kExitOutput = 4;        // OutputError
+constexpr int kExitChecks = 5;        // a [checks] criterion failed
+constexpr int kExitMemory = 6;        // MemoryError (refused by the estimate), std::bad_alloc
+constexpr int kExitInterrupted = 7;   // reserved for SIGINT / SIGTERM
+constexpr int kExitInternal = 70;     // any other exception: a bug
 
-int resolve_threads(int requested);  // 0 -> OMP_NUM_THREADS or 1
+constexpr int kMaxThreads = 1024;
+constexpr long kMaxSteps = 1000000000;
+
+// CLI11 validators that say what they expect: "--steps: expected an integer in
+// [0, 1000000000], got '-5'".
+CLI::Validator int_in(long lo, long hi);
+CLI::Validator number_in(double lo, double hi);
+
+// --threads if given (1..kMaxThreads), else OMP_NUM_THREADS (same range, else
+// std::invalid_argument), else 1. 0 means "not given".
+int resolve_threads(int requested);
 std::string backend_list();
 std::string solver_list();
+
+// Fails (OutputError naming the option and the path) unless `path` can be
+// written: not a directory, its directory exists, a file can be opened there.
+// Creates nothing: a probe file it had to create is removed. Empty: no check.
+void check_output_path(const std::string& option, const std::string& path);
+
+// A load_scene hook that refuses (MemoryError) a scene whose run, as
+// `shape_of` describes it from the scene read so far, would not fit in memory.
+BeforeCatoms memory_guard(std::function<RunShape(const Scene&)> shape_of);
+
 int guarded(const std::function<int()>& action);
 // kExitChecks when the report's [checks] verdict is a failure (printed when
 // `print`), else 0.
 int checks_exit_code(const nlohmann::json& report, bool print = true);
 // The `error` block of `run` against `reference_path`: a trajectory file, or a
-// run report (final observables only). Throws std::runtime_error naming the file.
+// run report (final observables only). Throws std::invalid_argument naming the file.
 nlohmann::json compare_with_reference(const parode::Trajectory& run, const std::string& reference_path,
                                       const nlohmann::json& run_report);
+
+// ODE's error and debug handlers: print ODE's message and exit with
+// kExitSimulation instead of aborting (ode_handlers.cpp).
+void install_ode_handlers();
+
+// `parode --version`: version, commit, ODE, OpenMP and MPI.
+std::string version_text();
 
 struct BenchArgs {
     std::string what;
@@ -45,6 +80,12 @@ struct BenchArgs {
 };
 void add_bench(CLI::App& app, BenchArgs& a, std::function<int()>& action);
 int bench_step(const BenchArgs& a);
+// The bench's scene, after checking --csv and the variants' thread counts,
+// refused when `pipelines` worlds of it would not fit in memory.
+Scene load_bench_scene(const BenchArgs& a, int pipelines);
+// "name:threads" -> {name, threads}; threads 1 when absent. Throws
+// std::invalid_argument naming the spec unless threads is in 1..kMaxThreads.
+std::pair<std::string, int> split_threads(const std::string& spec);
 
 struct CompareArgs {
     std::string run;

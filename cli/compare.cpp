@@ -14,6 +14,7 @@ namespace parode::cli {
 namespace {
 
 int compare_command(const CompareArgs& a) {
+    check_output_path("--report", a.report);
     Trajectory run, ref;
     try {
         run = read_trajectory(a.run);
@@ -41,8 +42,8 @@ void add_compare(CLI::App& app, CompareArgs& a, std::function<int()>& action) {
     cmd->add_option("run", a.run, "Trajectory of the run (parode run --trajectory FILE)")->required();
     cmd->add_option("reference", a.reference, "Trajectory of the reference run of the same scene")->required();
     cmd->add_option("--report", a.report, "Write {\"error\": ...} as JSON to this file");
-    cmd->add_option("--horizons", a.horizons, "Steps of the run after which to report position error")
-        ->capture_default_str();
+    cmd->add_option("--horizons", a.horizons, "Steps of the run after which to report position error, e.g. 10,50,200")
+        ->delimiter(',')->check(int_in(1, kMaxSteps))->capture_default_str();
     cmd->add_flag("--quiet,-q", a.quiet, "Print nothing");
     cmd->callback([&] { action = [&] { return compare_command(a); }; });
 }

@@ -1,24 +1,34 @@
-// The `parode` command line: `parode run SCENE ...` (and further subcommands).
-// Exit codes: 0 success, 1 simulation failed (NaN, runaway), 2 bad command
-// line, 3 bad scene file, 4 cannot write an output file, 5 a [checks]
-// criterion of the scene failed. Under mpirun every process runs this; the
-// root prints and writes (processes.hpp).
-// Trade-off: CLI11 handles parsing and help; each subcommand is a function of
-// its own options so new ones do not grow main().
+// The `parode` command line: `parode run SCENE ...`, `parode bench ...`,
+// `parode compare ...`, `parode latency`, `parode --version`. Under mpirun every
+// process runs this; the root prints and writes (processes.hpp).
+// Exit codes (README "Exit codes"):
+//   0  success
+//   1  the simulation failed: the guard stopped it (NaN, runaway energy or speed)
+//   2  bad command line (unknown option, value out of range, unreadable --reference)
+//   3  bad scene file (file, line, key and what was expected)
+//   4  an output file cannot be written (checked before the run starts)
+//   5  a [checks] criterion of the scene failed
+//   6  not enough memory: the estimate exceeds what the machine has, or an
+//      allocation failed
+//   7  interrupted (reserved: SIGINT / SIGTERM handling is not there yet)
+//   70 internal error: any other exception, a bug (the message says what)
+// Trade-off: CLI11 handles parsing, validation and help; each subcommand is a
+// function of its own options so new ones do not grow main().
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <iostream>
+#include <sstream>
 
 #include "cli_common.hpp"
 #include "processes.hpp"
 #include "io/error_metrics.hpp"
-#include "run/pipeline.hpp"
-#include "register.hpp"
 #include "io/report.hpp"
+#include "progress.hpp"
+#include "register.hpp"
+#include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
 
 namespace parode::cli {
@@ -26,15 +36,15 @@ namespace {
 
 struct RunArgs {
     std::string scene;
-    int steps = -1;
+    long steps = -1;
     double duration = -1;
-    int threads = 0;
+    int threads = 0;  // 0: not given
     std::string collide = "ode-hash";
     std::string solver = "ode";
     std::string report;
     std::vector<std::string> sets;
     std::string snapshot;
-    int snapshot_every = 0;
+    long snapshot_every = 1;
     std::string trajectory;
     std::string reference;
     std::string dump;
@@ -42,30 +52,34 @@ struct RunArgs {
     bool quiet = false;
 };
 
-class Progress {
-public:
-    Progress(int total, bool on) : total_(total), on_(on && total > 0) {}
-    void update(int done) {
-        if (!on_) return;
-        const int pct = static_cast<int>(100LL * done / total_);
-        if (pct == last_ && done != total_) return;
-        last_ = pct;
-        const int width = 40, fill = width * done / total_;
-        std::fprintf(stderr, "\r[%.*s%*s] %3d%% step %d/%d", fill, "########################################",
-                     width - fill, "", pct, done, total_);
-        if (done == total_) std::fputc('\n', stderr);
-        std::fflush(stderr);
+long step_count(const RunArgs& a, const Scene& scene) {
+    if (a.duration < 0) return a.steps >= 0 ? a.steps : scene.steps;
+    const double steps = std::round(a.duration / scene.dt);
+    if (steps > kMaxSteps) {
+        std::ostringstream os;
+        os << "--duration " << a.duration << " s at dt = " << scene.dt << " s is more than " << kMaxSteps << " steps";
+        throw std::invalid_argument(os.str());
     }
+    return static_cast<long>(steps);
+}
 
-private:
-    int total_;
-    bool on_;
-    int last_ = -1;
-};
+void check_outputs(const RunArgs& a) {
+    check_output_path("--report", a.report);
+    check_output_path("--trajectory", a.trajectory);
+    check_output_path("--snapshot", a.snapshot);
+    check_output_path("--dump-on-failure", a.dump);
+}
 
-int step_count(const RunArgs& a, const Scene& scene) {
-    if (a.duration >= 0) return static_cast<int>(std::llround(a.duration / scene.dt));
-    return a.steps >= 0 ? a.steps : scene.steps;
+Scene load_run_scene(const RunArgs& a) {
+    return load_scene(a.scene, a.sets, memory_guard([&a](const Scene& sc) {
+        RunShape shape;
+        shape.collide = a.collide;
+        shape.steps = step_count(a, sc);
+        shape.observe_every = sc.observe_every;
+        shape.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
+        shape.dump_on_failure = !a.dump.empty();
+        return shape;
+    }));
 }
 
 // The `error` block of a run against --reference, and the optional trajectory file.
@@ -78,26 +92,29 @@ void add_error(const RunArgs& a, const Pipeline& pipeline, nlohmann::json& repor
 
 int run_command(const RunArgs& a) {
     const Processes& procs = *Processes::current();
-    const Scene scene = load_scene(a.scene, a.sets);
-    const int steps = step_count(a, scene);
+    if (procs.root()) check_outputs(a);  // the root writes every file
     RunOptions opt;
+    opt.threads = resolve_threads(a.threads);
+    const Scene scene = load_run_scene(a);
+    const long steps = step_count(a, scene);
     opt.collide = a.collide;
     opt.solver = a.solver;
-    opt.threads = resolve_threads(a.threads);
     parode::omp::set_threads(opt.threads);
     opt.snapshot_path = a.snapshot;
-    opt.snapshot_every = a.snapshot.empty() ? 0 : std::max(1, a.snapshot_every);
+    opt.snapshot_every = a.snapshot.empty() ? 0 : static_cast<int>(a.snapshot_every);
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
     opt.invariants_every = a.check_every;
     const std::unique_ptr<Domain> domain = procs.make_domain(scene);
     opt.domain = domain.get();
     Pipeline pipeline(scene, opt);
-    Progress progress(steps, procs.root() && !a.quiet && isatty(STDERR_FILENO));
     const auto t0 = std::chrono::steady_clock::now();
-    for (int s = 0; s < steps; ++s) {
-        pipeline.step();
-        progress.update(s + 1);
+    {
+        Progress progress(steps, procs.root() && !a.quiet && isatty(STDERR_FILENO));
+        for (long s = 0; s < steps; ++s) {
+            pipeline.step();
+            progress.update(s + 1);
+        }
     }
     pipeline.finish();
     RunInfo info{a.scene, opt.threads, procs.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
@@ -113,17 +130,20 @@ int run_command(const RunArgs& a) {
 void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
     CLI::App* run = app.add_subcommand("run", "Simulate a scene and report speed and diagnostics");
     run->add_option("scene", a.scene, "Scene file (TOML), e.g. jobs/scenes/tennis.toml")->required();
-    run->add_option("--steps", a.steps, "Number of steps (default: the scene's scene.steps)")->check(CLI::NonNegativeNumber);
+    run->add_option("--steps", a.steps, "Number of steps (default: the scene's scene.steps)")->check(int_in(0, kMaxSteps));
     run->add_option("--duration", a.duration, "Simulated seconds (steps = duration / dt; overrides --steps)")
-        ->check(CLI::NonNegativeNumber);
-    run->add_option("--threads", a.threads, "Threads (default: OMP_NUM_THREADS, else 1)")->check(CLI::NonNegativeNumber);
-    run->add_option("--collide", a.collide, "Collision backend: " + backend_list())->capture_default_str();
-    run->add_option("--solver", a.solver, "Solver: " + solver_list())->capture_default_str();
+        ->check(number_in(0, 1e9));
+    run->add_option("--threads", a.threads, "Threads (default: OMP_NUM_THREADS, else 1)")->check(int_in(1, kMaxThreads));
+    run->add_option("--collide", a.collide, "Collision backend: " + backend_list())
+        ->check(CLI::IsMember(BackendRegistry::instance().names()))->capture_default_str();
+    run->add_option("--solver", a.solver, "Solver: " + solver_list())
+        ->check(CLI::IsMember(SolverRegistry::instance().names()))->capture_default_str();
     run->add_option("--report", a.report, "Write the JSON run report to this file");
     run->add_option("--set", a.sets, "Override a scene value, key=value (e.g. catoms.count=8000); repeatable")
         ->allow_extra_args(false);
-    run->add_option("--snapshot", a.snapshot, "Write body poses as CSV to this file");
-    run->add_option("--snapshot-every", a.snapshot_every, "Steps between snapshots (default 1 when --snapshot)");
+    CLI::Option* snapshot = run->add_option("--snapshot", a.snapshot, "Write body poses as CSV to this file");
+    run->add_option("--snapshot-every", a.snapshot_every, "Steps between snapshots (default 1)")
+        ->check(int_in(1, kMaxSteps))->needs(snapshot);
     run->add_option("--trajectory", a.trajectory, "Write body positions at observed steps (a reference for --reference)");
     run->add_option("--reference", a.reference,
                     "Compare with a reference run: its --trajectory file (full error metrics) or its --report JSON "
@@ -150,7 +170,9 @@ int main(int argc, char** argv) {
         return kExitUsage;
     }
     parode::omp::register_backends();
+    install_ode_handlers();
     CLI::App app{"parode: parallel rigid-body simulation on ODE (see README.md)"};
+    app.set_version_flag("--version", version_text(), "Print the version, git commit, ODE, OpenMP and MPI, and exit");
     app.require_subcommand(1);
     RunArgs run_args;
     BenchArgs bench_args;

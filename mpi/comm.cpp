@@ -3,6 +3,8 @@
 
 #include <mpi.h>
 
+#include "io/output_error.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -184,7 +186,7 @@ namespace {
 void io_check(int rc, const std::string& path, const char* what) {
     int bad = rc != MPI_SUCCESS ? 1 : 0;
     MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-    if (bad) throw std::runtime_error(path + ": " + what + " failed on at least one process");
+    if (bad) throw OutputError(path + ": " + what + " failed on at least one process");
 }
 
 }  // namespace

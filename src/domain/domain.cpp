@@ -2,6 +2,8 @@
 // (see domain.hpp).
 #include "domain/domain.hpp"
 
+#include "io/output_error.hpp"
+
 #include <fstream>
 #include <numeric>
 #include <stdexcept>
@@ -25,7 +27,7 @@ void Domain::max(double*, int) const {}
 
 void Domain::write_file(const std::string& path, const FilePieces& f) const {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(path + ": cannot open for writing");
+    if (!out) throw OutputError(path + ": cannot open for writing");
     out.write(f.head.data(), static_cast<std::streamsize>(f.head.size()));
     for (std::size_t i = 0; i < f.gids.size(); ++i) {
         out.seekp(static_cast<std::streamoff>(f.records_at + f.gids[i] * f.record));
@@ -34,7 +36,7 @@ void Domain::write_file(const std::string& path, const FilePieces& f) const {
     out.seekp(static_cast<std::streamoff>(f.tail_at));
     out.write(f.tail.data(), static_cast<std::streamsize>(f.tail.size()));
     out.flush();
-    if (!out) throw std::runtime_error(path + ": write failed (disk full?)");
+    if (!out) throw OutputError(path + ": write failed (disk full?)");
 }
 
 std::vector<std::vector<char>> Domain::all_gather(const std::vector<char>& mine) const { return {mine}; }

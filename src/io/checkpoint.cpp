@@ -103,10 +103,10 @@ void write_checkpoint(const std::string& path, const Domain& domain, const World
 
 Checkpoint read_checkpoint(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(path + ": cannot open the checkpoint");
+    if (!in) throw std::invalid_argument(path + ": cannot open the checkpoint");
     std::string line;
     std::getline(in, line);
-    if (line.rfind(kMagic, 0) != 0) throw std::runtime_error(path + ": not a parode checkpoint (no '" + std::string(kMagic) + "' line)");
+    if (line.rfind(kMagic, 0) != 0) throw std::invalid_argument(path + ": not a parode checkpoint (no '" + std::string(kMagic) + "' line)");
     Checkpoint c;
     c.path = path;
     try {
@@ -118,13 +118,13 @@ Checkpoint read_checkpoint(const std::string& path) {
         c.impulses = c.meta.at("impulses").get<std::uint64_t>();
         c.step = c.meta.at("step").get<long>();
     } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": damaged checkpoint header (" + e.what() + ")");
+        throw std::invalid_argument(path + ": damaged checkpoint header (" + e.what() + ")");
     }
     in.seekg(0, std::ios::end);
     const auto size = static_cast<std::uint64_t>(in.tellg());
     const std::uint64_t want = c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes;
     if (size != want) {
-        throw std::runtime_error(path + ": truncated or damaged checkpoint (" + std::to_string(size) + " bytes, expected " +
+        throw std::invalid_argument(path + ": truncated or damaged checkpoint (" + std::to_string(size) + " bytes, expected " +
                                  std::to_string(want) + ")");
     }
     return c;
@@ -138,7 +138,7 @@ std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vecto
     for (std::uint32_t g : gids) {
         in.seekg(static_cast<std::streamoff>(c.head_bytes + g * kRecordBytes));
         in.read(buf, kRecordBytes);
-        if (!in) throw std::runtime_error(c.path + ": cannot read the record of body " + std::to_string(g));
+        if (!in) throw std::invalid_argument(c.path + ": cannot read the record of body " + std::to_string(g));
         out.push_back(unpack_record(buf));
     }
     return out;
@@ -152,7 +152,7 @@ std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<st
     for (std::uint64_t left = c.impulses; left > 0;) {
         const std::uint64_t n = std::min<std::uint64_t>(left, 4096);
         in.read(chunk.data(), static_cast<std::streamsize>(n * kImpulseBytes));
-        if (!in) throw std::runtime_error(c.path + ": cannot read the warm-start impulses");
+        if (!in) throw std::invalid_argument(c.path + ": cannot read the warm-start impulses");
         for (std::uint64_t k = 0; k < n; ++k) {
             const WarmImpulse m = unpack_impulse(chunk.data() + k * kImpulseBytes);
             if (std::binary_search(gids.begin(), gids.end(), m.lo)) out.push_back(m);

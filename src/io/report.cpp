@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 
+#include "io/output_error.hpp"
 #include "util/hash.hpp"
 
 #ifndef PARODE_ODE_VERSION
@@ -183,9 +184,9 @@ void print_error_summary(std::ostream& os, const nlohmann::json& e) {
 
 void write_report(const std::string& path, const nlohmann::json& report) {
     std::ofstream out(path);
-    if (!out) throw std::runtime_error(path + ": cannot open report file for writing");
+    if (!out) throw OutputError(path + ": cannot open report file for writing");
     out << report.dump(2) << '\n';
-    if (!out) throw std::runtime_error(path + ": error while writing the report");
+    if (!out) throw OutputError(path + ": error while writing the report");
 }
 
 }  // namespace parode

@@ -79,7 +79,7 @@ Frame capture_frame(const World& world, const Diagnostics& d, long step, double 
 
 void write_trajectory(const std::string& path, const Trajectory& t) {
     std::ofstream out(path, std::ios::binary);
-    if (!out) throw std::runtime_error(path + ": cannot open trajectory file for writing");
+    if (!out) throw OutputError(path + ": cannot open trajectory file for writing");
     nlohmann::json meta = t.meta;
     meta["frames"] = t.frames.size();
     meta["catom_mask"] = catom_mask_text(t.catom);
@@ -91,7 +91,7 @@ void write_trajectory(const std::string& path, const Trajectory& t) {
         out.write(reinterpret_cast<const char*>(f.positions.data()),
                   static_cast<std::streamsize>(f.positions.size() * sizeof(double)));
     }
-    if (!out) throw std::runtime_error(path + ": error while writing the trajectory");
+    if (!out) throw OutputError(path + ": error while writing the trajectory");
 }
 
 bool is_trajectory_file(const std::string& path) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "domain/domain.hpp"
+#include "io/output_error.hpp"  // write_trajectory throws it
 #include "run/diagnostics.hpp"
 #include "scene/scene.hpp"
 #include "world/world.hpp"

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "domain/gather.hpp"
+#include "io/output_error.hpp"
 #include "forces/controller.hpp"
 
 namespace parode {
@@ -29,7 +30,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
     if (stage(Stage::Output).enabled && domain_->root()) {
         snapshot_.open(options.snapshot_path);
-        if (!snapshot_) throw std::runtime_error(options.snapshot_path + ": cannot open snapshot file for writing");
+        if (!snapshot_) throw OutputError(options.snapshot_path + ": cannot open snapshot file for writing");
         snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
     }
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
@@ -159,7 +160,7 @@ void Pipeline::run_output() {
         snapshot_ << steps_ << ',' << i << ',' << r[0] << ',' << r[1] << ',' << r[2] << ',' << r[3] << ',' << r[4]
                   << ',' << r[5] << ',' << r[6] << '\n';
     }
-    if (domain_->root() && !snapshot_.flush()) throw std::runtime_error(snapshot_path_ + ": the snapshot could not be written (disk full?)");
+    if (domain_->root() && !snapshot_.flush()) throw OutputError(snapshot_path_ + ": the snapshot could not be written (disk full?)");
 }
 
 }  // namespace parode

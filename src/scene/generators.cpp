@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "scene/limits.hpp"
+
 namespace parode {
 
 void prism_dims(long count, long dims[3]) {
@@ -39,17 +41,17 @@ void read_catoms(const Node& root, Scene& sc) {
     BodySpec proto;
     proto.catom = true;
     proto.shape.kind = ShapeKind::Sphere;
-    proto.shape.radius = t.number("radius", 0.5, 1e-9);
-    proto.mass = t.number("mass", 1.0, 1e-12);
+    proto.shape.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
+    proto.mass = t.number("mass", 1.0, limits::kMinMass, limits::kMaxMass);
     proto.material = catom_material(t, sc);
-    proto.velocity = t.vec3("velocity", proto.velocity);
+    proto.velocity = t.vec3_length("velocity", proto.velocity, limits::max_speed(sc.dt), limits::speed_text(sc.dt));
     const double r = proto.shape.radius;
     CatomBlock& c = sc.catoms;
     c.first = sc.bodies.size();
     c.count = static_cast<std::size_t>(count);
-    c.spacing = t.number("spacing", 2 * r, 1e-9);
+    c.spacing = t.number("spacing", 2 * r, r, limits::kMaxSize);  // overlap at most one radius
     c.jitter = t.number("jitter", 0.01, 0.0, 1.0) * r;
-    c.base = t.vec3("base", Vec3{0, 0, 0});  // centre of the prism's bottom face
+    c.base = t.vec3("base", Vec3{0, 0, 0}, limits::kMaxCoordinate, limits::coordinate_text());
     prism_dims(count, c.dims);
     c.seed = sc.seed;
     c.proto = proto;

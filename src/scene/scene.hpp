@@ -136,7 +136,7 @@ struct SolverSpec {
 struct GuardSpec {
     bool energy = true;                     // stop when the total energy grows past the bound
     std::optional<double> max_energy_gain;  // J over the initial energy; unset: automatic bound
-    double max_speed = 0;                   // m/s; 0: no speed bound
+    double max_speed = 0;                   // m/s; 0: no speed bound (the reader sets the bound of limits.hpp)
 };
 
 // A bound on one coordinate of one body, at the end of the run or (always)

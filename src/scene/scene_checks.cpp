@@ -42,7 +42,7 @@ void read_guard(const Node& root, GuardSpec& g) {
     t.expect_keys({"energy", "max_energy_gain", "max_speed"});
     g.energy = t.boolean("energy", g.energy);
     g.max_energy_gain = opt_number(t, "max_energy_gain", 0.0);
-    g.max_speed = t.number("max_speed", g.max_speed, 0.0);
+    g.max_speed = t.number("max_speed", g.max_speed, 1e-9, g.max_speed);  // at most the speed bound at this dt
 }
 
 void read_checks(const Node& root, Scene& sc) {

@@ -4,27 +4,52 @@
 // here, so later stages never look anything up by string.
 #include "scene/scene_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include "scene/generators.hpp"
+#include "scene/limits.hpp"
 #include "scene/scene_checks.hpp"
 #include "util/hash.hpp"
 
 namespace parode {
 namespace {
 
+// `t.key` scaled to length 1; scaling by the largest component first keeps
+// 1e300 or 1e-300 components from overflowing the squares.
+Vec3 unit_vector(const Node& t, const std::string& key, const Vec3& def) {
+    Vec3 v = t.vec3(key, def);
+    const double m = std::max({std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
+    if (m == 0) t.fail(key, "a non-zero vector");
+    for (double& c : v) c /= m;
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (double& c : v) c /= n;
+    return v;
+}
+
+// Unit vectors less than 1e-6 rad apart (or opposite).
+bool parallel(const Vec3& a, const Vec3& b) {
+    const Vec3 c{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    return std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) < 1e-6;
+}
+
 Quat read_rotation(const Node& t) {
     if (!t.has("rotation")) return Quat{1, 0, 0, 0};
     const Node r = t.at("rotation");
     r.expect_keys({"axis", "angle"});
-    Vec3 axis = r.vec3("axis", Vec3{0, 0, 1});
-    const double n = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    if (n == 0) r.fail("axis", "a non-zero vector");
+    const Vec3 axis = unit_vector(r, "axis", Vec3{0, 0, 1});
     const double angle = r.number_required("angle");
-    const double s = std::sin(angle / 2) / n;
+    const double s = std::sin(angle / 2);
     return Quat{std::cos(angle / 2), axis[0] * s, axis[1] * s, axis[2] * s};
+}
+
+// A joint axis: ODE normalises it, but cannot normalise a zero vector.
+Vec3 joint_axis(const Node& t, const std::string& key, const Vec3& def) {
+    const Vec3 v = t.vec3(key, def);
+    if (v[0] == 0 && v[1] == 0 && v[2] == 0) t.fail(key, "a non-zero vector");
+    return v;
 }
 
 Shape read_shape(const Node& t) {
@@ -33,12 +58,14 @@ Shape read_shape(const Node& t) {
     if (kind == "box") {
         s.kind = ShapeKind::Box;
         s.size = t.vec3("size", Vec3{1, 1, 1});
-        for (double x : s.size) if (!(x > 0)) t.fail("size", "three positive numbers");
+        for (double x : s.size) {
+            if (!(x >= limits::kMinSize && x <= limits::kMaxSize)) t.fail("size", "three numbers in [0.0001, 10000] (m)");
+        }
         return s;
     }
     s.kind = kind == "sphere" ? ShapeKind::Sphere : kind == "capsule" ? ShapeKind::Capsule : ShapeKind::Cylinder;
-    s.radius = t.number("radius", 0.5, 1e-9);
-    if (s.kind != ShapeKind::Sphere) s.length = t.number("length", 1.0, 1e-9);
+    s.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
+    if (s.kind != ShapeKind::Sphere) s.length = t.number("length", 1.0, limits::kMinSize, limits::kMaxSize);
     return s;
 }
 
@@ -60,7 +87,8 @@ void read_scene_table(const Node& root, Scene& sc) {
     sc.seed = static_cast<std::uint64_t>(t.integer("seed", 1, 0, std::numeric_limits<long>::max()));
     sc.steps = static_cast<int>(t.integer("steps", 1000, 0, 1000000000));
     sc.dt = t.number("dt", 0.005, 1e-9, 1.0);
-    sc.gravity = t.vec3("gravity", Vec3{0, 0, -9.81});
+    sc.gravity = t.vec3_length("gravity", Vec3{0, 0, -9.81}, limits::kMaxGravity,
+                               "an array of 3 numbers of length <= 1000 (m/s^2)");
     sc.observe_every = static_cast<int>(t.integer("observe_every", 10, 1, 1000000000));
 }
 
@@ -123,11 +151,12 @@ void read_bodies(const Node& root, Scene& sc) {
         if (b.name.empty()) t.fail("name", "a non-empty string");
         if (sc.find_body(b.name) >= 0) t.fail("name", "a name not used by another body");
         b.shape = read_shape(t);
-        b.mass = t.number("mass", 1.0, 1e-12);
-        b.position = t.vec3("position", b.position);
+        b.mass = t.number("mass", 1.0, limits::kMinMass, limits::kMaxMass);
+        b.position = t.vec3("position", b.position, limits::kMaxCoordinate, limits::coordinate_text());
         b.orientation = read_rotation(t);
-        b.velocity = t.vec3("velocity", b.velocity);
-        b.angular_velocity = t.vec3("angular_velocity", b.angular_velocity);
+        b.velocity = t.vec3_length("velocity", b.velocity, limits::max_speed(sc.dt), limits::speed_text(sc.dt));
+        b.angular_velocity = t.vec3_length("angular_velocity", b.angular_velocity, limits::max_turn_rate(sc.dt),
+                                           limits::turn_rate_text(sc.dt));
         b.material = material_index(sc, t, "material");
         b.catom = t.boolean("catom", false);
         if (b.catom && b.shape.kind != ShapeKind::Sphere) t.fail("catom", "false for a shape other than a sphere");
@@ -144,7 +173,7 @@ void read_statics(const Node& root, Scene& sc) {
         StaticGeom g;
         g.name = t.string("name", "static" + std::to_string(i));
         g.shape = read_shape(t);
-        g.position = t.vec3("position", g.position);
+        g.position = t.vec3("position", g.position, limits::kMaxCoordinate, limits::coordinate_text());
         g.orientation = read_rotation(t);
         g.material = material_index(sc, t, "material");
         sc.statics.push_back(g);
@@ -158,11 +187,8 @@ void read_planes(const Node& root, Scene& sc) {
         const Node t = arr.index(i);
         t.expect_keys({"normal", "offset", "material"});
         PlaneSpec p;
-        p.normal = t.vec3("normal", p.normal);
-        const double n = std::sqrt(p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2]);
-        if (n == 0) t.fail("normal", "a non-zero vector");
-        for (double& c : p.normal) c /= n;
-        p.offset = t.number("offset", 0.0);
+        p.normal = unit_vector(t, "normal", p.normal);
+        p.offset = t.number("offset", 0.0, -limits::kMaxCoordinate, limits::kMaxCoordinate);
         p.material = material_index(sc, t, "material");
         sc.planes.push_back(p);
     }
@@ -187,7 +213,8 @@ void read_joint_params(const Node& t, JointSpec& j) {
             throw SceneError(where(kv.second) + ": unknown joint parameter '" + p.key_path(kv.first) +
                              "' (expected one of: " + joint_param_names() + ")");
         }
-        j.params.emplace_back(kv.first, p.number_required(kv.first));
+        const limits::Range r = limits::joint_param_range(kv.first);
+        j.params.emplace_back(kv.first, p.number_required(kv.first, r.lo, r.hi));
     }
 }
 
@@ -207,9 +234,13 @@ void read_joints(const Node& root, Scene& sc) {
         j.body_a = body_ref(sc, b, 0);
         j.body_b = body_ref(sc, b, 1);
         if (j.body_a < 0 && j.body_b < 0) t.fail("bodies", "at least one body that is not \"world\"");
-        j.anchor = t.vec3("anchor", j.anchor);
-        j.axis1 = t.vec3("axis1", j.axis1);
-        j.axis2 = t.vec3("axis2", j.axis2);
+        if (j.body_a == j.body_b) t.fail("bodies", "two different bodies");
+        j.anchor = t.vec3("anchor", j.anchor, limits::kMaxCoordinate, limits::coordinate_text());
+        j.axis1 = joint_axis(t, "axis1", j.axis1);
+        j.axis2 = joint_axis(t, "axis2", j.axis2);
+        if (j.kind == JointKind::Hinge2 && parallel(unit_vector(t, "axis1", j.axis1), unit_vector(t, "axis2", j.axis2))) {
+            t.fail("axis2", "a vector not parallel to axis1 (ODE's hinge2 needs two independent axes)");
+        }
         read_joint_params(t, j);
         sc.joints.push_back(j);
     }
@@ -262,8 +293,9 @@ void read_controller(const Node& root, Scene& sc) {
     c.track_gain = t.number("track_gain", c.track_gain, 0.0);
     c.pace_gain = t.number("pace_gain", c.pace_gain, 0.0);
     c.steer_amplitude = t.number("steer_amplitude", c.steer_amplitude, 0.0, 1.5);
-    c.speed_min = t.number("speed_min", c.speed_min, 0.0);
-    c.speed_max = t.number("speed_max", c.speed_max, c.speed_min);
+    const double w = limits::kMaxMotorSpeed;
+    c.speed_min = t.number("speed_min", c.speed_min, 0.0, w);
+    c.speed_max = t.number("speed_max", c.speed_max, c.speed_min, w);
     c.speed_period = t.number("speed_period", c.speed_period, 1e-6);
     c.steer_gain = t.number("steer_gain", c.steer_gain, 0.0);
     c.steer_fmax = t.number("steer_fmax", c.steer_fmax, 0.0);
@@ -278,7 +310,20 @@ void read_parallel(const Node& root, ParallelSpec& p) {
     p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
 }
 
-Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides) {
+// The [catoms] table's size keys, read with the bounds read_catoms applies.
+CatomPlan plan_catoms(const Node& root) {
+    CatomPlan p;
+    if (!root.has("catoms")) return p;
+    const Node t = root.at("catoms");
+    t.require_table();
+    p.count = t.integer("count", 1000, 1, 100000000);
+    p.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
+    p.spacing = t.number("spacing", 2 * p.radius, p.radius, limits::kMaxSize);
+    return p;
+}
+
+Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides,
+                  const BeforeCatoms& before_catoms) {
     for (const auto& o : overrides) apply_override(data, o);
     const Node root(data, "");
     root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
@@ -293,9 +338,14 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     read_statics(root, sc);
     read_joints(root, sc);
     read_controller(root, sc);
+    if (before_catoms) before_catoms(sc, plan_catoms(root));
+    const std::size_t hand_written = sc.bodies.size();
     read_catoms(root, sc);
     read_magnets(root, sc);
     if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
+    limits::check_mass_ratio(root, sc, hand_written);
+    limits::check_catom_extent(root, sc, hand_written);
+    sc.guard.max_speed = limits::max_speed(sc.dt);  // [guard] max_speed may lower it
     read_guard(root, sc.guard);
     read_parallel(root, sc.parallel);
     read_checks(root, sc);
@@ -319,9 +369,10 @@ std::uint64_t scene_digest(const std::string& text, const std::vector<std::strin
 
 }  // namespace
 
-Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides,
+                 const BeforeCatoms& before_catoms) {
     toml::value data = parse_toml_file(path);
-    Scene sc = build_scene(data, path, overrides);
+    Scene sc = build_scene(data, path, overrides, before_catoms);
     std::ifstream in(path, std::ios::binary);
     std::ostringstream text;
     text << in.rdbuf();
@@ -340,7 +391,7 @@ Scene load_scene_text(const std::string& text, const std::string& name,
         const std::string at = line == 0 ? name : name + ":" + std::to_string(line);
         throw SceneError(at + ": TOML syntax error:\n" + std::string(e.what()));
     }
-    Scene sc = build_scene(data, name, overrides);
+    Scene sc = build_scene(data, name, overrides, {});
     sc.digest = scene_digest(text, overrides);
     return sc;
 }

@@ -1,9 +1,11 @@
 // Validating TOML reader (see toml_reader.hpp).
 #include "scene/toml_reader.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -23,7 +25,15 @@ std::string describe(const toml::value& v) {
         case toml::value_t::table: return "a table";
         case toml::value_t::array: {
             const std::size_t n = v.as_array().size();
-            return "an array of " + std::to_string(n) + (n == 1 ? " element" : " elements");
+            std::string s = "an array of " + std::to_string(n) + (n == 1 ? " element" : " elements");
+            if (n == 0 || n > 4) return s;
+            for (std::size_t i = 0; i < n; ++i) {
+                const toml::value& e = v.as_array()[i];
+                const bool scalar = e.is_integer() || e.is_floating() || e.is_boolean();
+                const std::string text = e.is_string() ? "\"" + e.as_string().str + "\"" : scalar ? describe(e) : "...";
+                s += (i ? ", " : " [") + text;
+            }
+            return s + "]";
         }
         case toml::value_t::string: return "the string \"" + v.as_string().str + "\"";
         case toml::value_t::boolean: return v.as_boolean() ? "true" : "false";
@@ -85,12 +95,45 @@ void Node::fail_here(const std::string& message) const {
     throw SceneError(where(*v_) + ": " + message);
 }
 
+// The literal as written ("1e309"), when toml11 kept the value's location.
+static std::string literal_text(const toml::value& v) {
+    const toml::source_location loc = v.location();
+    const std::string& line = loc.line_str();
+    if (loc.column() == 0 || loc.column() - 1 + loc.region() > line.size()) return "";
+    std::string s = line.substr(loc.column() - 1, loc.region());
+    s.erase(std::remove(s.begin(), s.end(), '_'), s.end());
+    return s;
+}
+
+// toml11 reads a decimal literal beyond the range of its type as the largest
+// value (1e309 -> 1.8e308, 99999999999999999999 -> 2^63 - 1) or as 0 (1e-400),
+// without an error: such a literal is reported here instead of being used.
+static std::string out_of_range_literal(const toml::value& v) {
+    const std::string s = literal_text(v);
+    if (s.empty() || s.find_first_of("xobin") != std::string::npos) return "";  // hex/octal/binary, inf, nan
+    errno = 0;
+    if (v.is_floating()) {
+        const double x = std::strtod(s.c_str(), nullptr);
+        if (errno == ERANGE) return s + (std::fabs(x) > 1 ? " (beyond the range of a double)" : " (too small for a double)");
+    } else if (v.is_integer()) {
+        std::strtoll(s.c_str(), nullptr, 10);
+        if (errno == ERANGE) return s + " (beyond the range of a 64-bit integer)";
+    }
+    return "";
+}
+
+static void check_literal(const toml::value& v, const std::string& path, const std::string& what) {
+    const std::string bad = out_of_range_literal(v);
+    if (!bad.empty()) throw SceneError(where(v) + ": key '" + path + "': expected " + what + ", got " + bad);
+}
+
 double Node::to_number(const Node& n, const std::string& what) const {
     const toml::value& v = n.value();
     double x = 0;
     if (v.is_integer()) x = static_cast<double>(v.as_integer());
     else if (v.is_floating()) x = v.as_floating();
     else throw SceneError(where(v) + ": key '" + n.path() + "': expected " + what + ", got " + describe(v));
+    check_literal(v, n.path(), what);
     if (!std::isfinite(x)) throw SceneError(where(v) + ": key '" + n.path() + "': expected " + what + ", got " + describe(v));
     return x;
 }
@@ -119,6 +162,7 @@ long Node::integer(const std::string& key, long def, long lo, long hi) const {
     if (!has(key)) return def;
     const toml::value& v = v_->as_table().at(key);
     const std::string what = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    if (v.is_integer()) check_literal(v, key_path(key), what);
     if (!v.is_integer() || v.as_integer() < lo || v.as_integer() > hi) fail(key, what);
     return static_cast<long>(v.as_integer());
 }
@@ -155,6 +199,30 @@ Vec3 Node::vec3(const std::string& key, const Vec3& def) const {
     Vec3 out{};
     for (std::size_t i = 0; i < 3; ++i) out[i] = to_number(a.index(i), "a number");
     return out;
+}
+
+static std::string vec_text(const Vec3& v) {
+    std::ostringstream os;
+    os << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
+    return os.str();
+}
+
+Vec3 Node::vec3(const std::string& key, const Vec3& def, double bound, const std::string& what) const {
+    const Vec3 v = vec3(key, def);
+    for (double c : v) if (std::fabs(c) > bound) fail_value(key, what, vec_text(v));
+    return v;
+}
+
+Vec3 Node::vec3_length(const std::string& key, const Vec3& def, double max_length, const std::string& what) const {
+    const Vec3 v = vec3(key, def);
+    const double n = std::hypot(v[0], v[1], v[2]);
+    if (n > max_length) fail_value(key, what, vec_text(v));
+    return v;
+}
+
+void Node::fail_value(const std::string& key, const std::string& expected, const std::string& got) const {
+    const toml::value& v = has(key) ? v_->as_table().at(key) : *v_;
+    throw SceneError(where(v) + ": key '" + key_path(key) + "': expected " + expected + ", got " + got);
 }
 
 // "file:line: TOML syntax error:" and toml11's own excerpt of the file.

@@ -47,9 +47,15 @@ public:
     std::string choice(const std::string& key, const std::string& def,
                        std::initializer_list<const char*> options) const;
     Vec3 vec3(const std::string& key, const Vec3& def) const;
+    // Each component within [-bound, bound]; `what` says what was expected.
+    Vec3 vec3(const std::string& key, const Vec3& def, double bound, const std::string& what) const;
+    // Euclidean length at most `max_length`.
+    Vec3 vec3_length(const std::string& key, const Vec3& def, double max_length, const std::string& what) const;
 
     [[noreturn]] void fail(const std::string& key, const std::string& expected) const;
     [[noreturn]] void fail_here(const std::string& message) const;
+    // Like fail(), with the value found described by the caller.
+    [[noreturn]] void fail_value(const std::string& key, const std::string& expected, const std::string& got) const;
 
     static constexpr double kInf = std::numeric_limits<double>::infinity();
 
