@@ -208,7 +208,10 @@ nlohmann::json read_json_report(const std::string& path) {
     }
 }
 
-double end_time(const nlohmann::json& r) { return r.at("steps").get<double>() * r.at("dt").get<double>(); }
+double end_time(const nlohmann::json& r) {
+    if (r.contains("time")) return r.at("time").get<double>();
+    return r.at("steps").get<double>() * r.at("dt").get<double>();
+}
 
 // Final observables of two run reports that end at the same simulated time.
 nlohmann::json compare_reports(const nlohmann::json& run, const nlohmann::json& ref, const std::string& path) {

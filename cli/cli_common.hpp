@@ -24,7 +24,7 @@ constexpr int kExitScene = 3;         // SceneError
 constexpr int kExitOutput = 4;        // OutputError
 constexpr int kExitChecks = 5;        // a [checks] criterion failed
 constexpr int kExitMemory = 6;        // MemoryError (refused by the estimate), std::bad_alloc
-constexpr int kExitInterrupted = 7;   // reserved for SIGINT / SIGTERM
+constexpr int kExitInterrupted = 7;   // SIGTERM / SIGINT: checkpoint written, report marked interrupted
 constexpr int kExitInternal = 70;     // any other exception: a bug
 
 constexpr int kMaxThreads = 1024;

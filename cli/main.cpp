@@ -10,7 +10,8 @@
 //   5  a [checks] criterion of the scene failed
 //   6  not enough memory: the estimate exceeds what the machine has, or an
 //      allocation failed
-//   7  interrupted (reserved: SIGINT / SIGTERM handling is not there yet)
+//   7  interrupted by SIGTERM or SIGINT: the step finished, a checkpoint and the
+//      report (marked "interrupted") were written
 //   70 internal error: any other exception, a bug (the message says what)
 // Trade-off: CLI11 handles parsing, validation and help; each subcommand is a
 // function of its own options so new ones do not grow main().
@@ -23,6 +24,7 @@
 #include <sstream>
 
 #include "cli_common.hpp"
+#include "interrupts.hpp"
 #include "processes.hpp"
 #include "io/error_metrics.hpp"
 #include "io/report.hpp"
@@ -49,6 +51,9 @@ struct RunArgs {
     std::string reference;
     std::string dump;
     int check_every = 0;
+    std::string checkpoint;
+    long checkpoint_every = 0;
+    std::string restart;
     bool quiet = false;
 };
 
@@ -68,6 +73,7 @@ void check_outputs(const RunArgs& a) {
     check_output_path("--trajectory", a.trajectory);
     check_output_path("--snapshot", a.snapshot);
     check_output_path("--dump-on-failure", a.dump);
+    check_output_path("--checkpoint", a.checkpoint);
 }
 
 Scene load_run_scene(const RunArgs& a) {
@@ -90,6 +96,20 @@ void add_error(const RunArgs& a, const Pipeline& pipeline, nlohmann::json& repor
     report["error"]["reference_file"] = a.reference;
 }
 
+// The steps of a run, checkpoints on the way; true when a signal stopped it.
+bool run_steps(const RunArgs& a, long steps, Pipeline& pipeline, const Interrupts& interrupts, bool root) {
+    Progress progress(steps, root && !a.quiet && isatty(STDERR_FILENO));
+    for (long s = 0; s < steps; ++s) {
+        pipeline.step();
+        progress.update(s + 1);
+        if (a.checkpoint_every > 0 && pipeline.steps_done() % a.checkpoint_every == 0 && s + 1 < steps) {
+            pipeline.write_checkpoint(a.checkpoint);
+        }
+        if (interrupts.requested(pipeline.domain())) return true;
+    }
+    return false;
+}
+
 int run_command(const RunArgs& a) {
     const Processes& procs = *Processes::current();
     if (procs.root()) check_outputs(a);  // the root writes every file
@@ -105,26 +125,34 @@ int run_command(const RunArgs& a) {
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
     opt.invariants_every = a.check_every;
+    opt.restart_path = a.restart;
     const std::unique_ptr<Domain> domain = procs.make_domain(scene);
     opt.domain = domain.get();
     Pipeline pipeline(scene, opt);
+    const Interrupts interrupts;
     const auto t0 = std::chrono::steady_clock::now();
-    {
-        Progress progress(steps, procs.root() && !a.quiet && isatty(STDERR_FILENO));
-        for (long s = 0; s < steps; ++s) {
-            pipeline.step();
-            progress.update(s + 1);
-        }
-    }
+    const bool stopped = run_steps(a, steps, pipeline, interrupts, procs.root());
     pipeline.finish();
+    const std::string checkpoint = stopped && a.checkpoint.empty() ? scene.name + "-interrupted.ckpt" : a.checkpoint;
+    if (!checkpoint.empty()) pipeline.write_checkpoint(checkpoint);
     RunInfo info{a.scene, opt.threads, procs.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
     nlohmann::json report = make_report(scene, pipeline, info);
-    if (!procs.root()) return checks_exit_code(report, false);
+    if (!a.restart.empty()) {
+        const std::string caveat = pipeline.restart_caveat();
+        report["restart"] = {{"from", a.restart}, {"step", pipeline.first_step()}, {"exact", caveat.empty()},
+                             {"inexact_bodies", pipeline.inexact_restores()}, {"why", caveat}};
+        if (!caveat.empty() && procs.root()) std::cerr << "parode: restart not bit for bit: " << caveat << "\n";
+    }
+    if (stopped) report["interrupted"] = {{"signal", interrupts.name()}, {"step", pipeline.steps_done()}, {"checkpoint", checkpoint}};
+    if (!procs.root()) return stopped ? kExitInterrupted : checks_exit_code(report, false);
     add_error(a, pipeline, report);
     if (!a.quiet) print_summary(std::cout, report);
     if (!a.quiet && report.contains("error")) print_error_summary(std::cout, report["error"]);
     if (!a.report.empty()) write_report(a.report, report);
-    return checks_exit_code(report);
+    if (!stopped) return checks_exit_code(report);
+    std::cerr << "parode: interrupted by " << interrupts.name() << " after step " << pipeline.steps_done()
+              << "; checkpoint written to " << checkpoint << " (continue with --restart " << checkpoint << ")\n";
+    return kExitInterrupted;
 }
 
 void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
@@ -153,6 +181,13 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
                     "Steps between checks of the distributed invariants (one owner per body, constant count, ghosts "
                     "equal owners; default 100, every step in debug builds)")
         ->check(CLI::Range(1, 1000000000));
+    CLI::Option* checkpoint = run->add_option(
+        "--checkpoint", a.checkpoint,
+        "Write a checkpoint here at the end of the run (and every --checkpoint-every steps, and on SIGTERM/SIGINT)");
+    run->add_option("--checkpoint-every", a.checkpoint_every, "Steps between checkpoints")
+        ->check(int_in(1, kMaxSteps))->needs(checkpoint);
+    run->add_option("--restart", a.restart,
+                    "Continue from this checkpoint (the same scene and --set options); --steps counts the steps to add");
     run->add_flag("--quiet,-q", a.quiet, "No summary table and no progress bar");
     run->callback([&] { action = [&] { return run_command(a); }; });
 }

@@ -19,6 +19,22 @@ TEST_P(Ranks, SameStateHashAsOneProcess) {
 
 INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-tennis"));
 
+// A checkpoint written by 2 processes restarts on 1, 2 and 3 processes with
+// the hash of the uninterrupted run.
+TEST_F(Mpi, CheckpointOfTwoRanksRestartsOnOneTwoThree) {
+    const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --collide grid --solver parallel -q"
+                               " --set catoms.count=1000 --set parallel.rebalance_threshold=1.02";
+    ASSERT_EQ(run(0, common + " --steps 200 --report " + path("full.json")).rc, 0);
+    const Result w = run(2, common + " --steps 100 --checkpoint " + path("two.ckpt"));
+    ASSERT_EQ(w.rc, 0) << w.err;
+    for (int ranks : {0, 2, 3}) {
+        const std::string name = "restart" + std::to_string(ranks) + ".json";
+        const Result r = run(ranks, common + " --restart " + path("two.ckpt") + " --steps 100 --report " + path(name));
+        ASSERT_EQ(r.rc, 0) << ranks << " ranks: " << r.err;
+        EXPECT_EQ(report(name)["state_hash"], report("full.json")["state_hash"]) << "restarted on " << ranks << " ranks";
+    }
+}
+
 // Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.
 TEST_F(Mpi, OutputFilesEqualOneProcessFiles) {
     const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 60 --collide grid"

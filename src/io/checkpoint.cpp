@@ -14,27 +14,30 @@ const char* kMagic = "parode-checkpoint 1 ";
 constexpr std::uint64_t kAlign = 4096;
 
 void pack_record(const World& world, std::size_t i, char* out) {
-    BodyState s = world.state(i);
+    const BodyState s = world.state(i);
     const dReal* q = dBodyGetQuaternion(world.body(i));
-    for (int k = 0; k < 4; ++k) s.q[k] = q[k];  // what ODE holds, not the input it was given
-    double v[16];
+    double v[21];
+    v[20] = dBodyIsEnabled(world.body(i)) ? 1.0 : 0.0;
     std::copy(s.x, s.x + 3, v);
     std::copy(s.q, s.q + 4, v + 3);
-    std::copy(s.v, s.v + 3, v + 7);
-    std::copy(s.w, s.w + 3, v + 10);
-    std::copy(world.origin(i).begin(), world.origin(i).end(), v + 13);
+    std::copy(q, q + 4, v + 7);
+    std::copy(s.v, s.v + 3, v + 11);
+    std::copy(s.w, s.w + 3, v + 14);
+    std::copy(world.origin(i).begin(), world.origin(i).end(), v + 17);
     std::memcpy(out, v, kRecordBytes);
 }
 
 CheckpointRecord unpack_record(const char* in) {
-    double v[16];
+    double v[21];
     std::memcpy(v, in, kRecordBytes);
     CheckpointRecord r;
     std::copy(v, v + 3, r.state.x);
     std::copy(v + 3, v + 7, r.state.q);
-    std::copy(v + 7, v + 10, r.state.v);
-    std::copy(v + 10, v + 13, r.state.w);
-    std::copy(v + 13, v + 16, r.origin.begin());
+    std::copy(v + 7, v + 11, r.ode_q);
+    std::copy(v + 11, v + 14, r.state.v);
+    std::copy(v + 14, v + 17, r.state.w);
+    std::copy(v + 17, v + 20, r.origin.begin());
+    r.enabled = v[20] != 0.0;
     return r;
 }
 

@@ -4,8 +4,9 @@
 //   "parode-checkpoint 1 <head bytes>\n" + JSON metadata, padded with spaces
 //     to a multiple of 4 KiB (step, time, the scene's name and digest, ODE's
 //     dRand state, run totals, guard and checks state, counts);
-//   one 128-byte record per body, in global-id order: position, ODE's stored
-//     quaternion, linear and angular velocity, initial position (16 doubles);
+//   one 168-byte record per body, in global-id order: position, the
+//     quaternion last handed to ODE and the one ODE holds, linear and angular
+//     velocity, initial position, awake (21 doubles);
 //   the warm-start impulses of the contact solver, 36 bytes each (lo, hi,
 //     index, three impulses), grouped by the process that wrote them.
 // Every process writes its owned bodies' records in place (MPI-IO, by gid)
@@ -28,10 +29,12 @@
 namespace parode {
 
 struct CheckpointRecord {
-    BodyState state;  // q: ODE's stored quaternion
+    BodyState state;     // q: the input last handed to ODE
+    double ode_q[4];     // what ODE held: the check that the restore is exact
     Vec3 origin;
+    bool enabled = true; // awake (ODE auto-disable)
 };
-constexpr std::size_t kRecordBytes = 16 * sizeof(double);
+constexpr std::size_t kRecordBytes = 21 * sizeof(double);
 constexpr std::size_t kImpulseBytes = 3 * sizeof(std::uint32_t) + 3 * sizeof(double);
 
 struct Checkpoint {

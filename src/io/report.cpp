@@ -85,7 +85,7 @@ nlohmann::json spread(const Domain& domain, double v) {
 nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo& info) {
     const Domain& domain = p.domain();
     nlohmann::json r;
-    const int steps = p.steps_done();
+    const int steps = p.steps_done() - p.first_step();  // of this run (a restart continues from first_step)
     const double wall = domain.max(info.wall_s);
     r["scene"] = scene.name;
     r["scene_file"] = info.scene_path;
@@ -93,6 +93,8 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["bodies"] = p.world().global_body_count();
     r["catoms"] = scene.catom_count();
     r["steps"] = steps;
+    r["final_step"] = p.steps_done();
+    r["time"] = p.steps_done() * scene.dt;
     r["dt"] = scene.dt;
     r["threads"] = info.threads;
     r["ranks"] = domain.ranks();
@@ -113,7 +115,8 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["stage_ranks"] = ranks;
     r["stages_run"] = ran;
     const auto contacts = domain.sum(static_cast<std::int64_t>(p.totals().contacts));
-    r["contacts_per_step"] = steps ? static_cast<double>(contacts) / steps : 0.0;
+    // The totals cover the whole run, a restarted one's included.
+    r["contacts_per_step"] = p.steps_done() ? static_cast<double>(contacts) / p.steps_done() : 0.0;
     r["state_hash"] = hex64(p.last().state_hash);
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();

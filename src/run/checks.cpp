@@ -61,9 +61,14 @@ void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& 
 
 }  // namespace
 
+// The start frame holds every body's initial position (its origin, which a
+// restarted run carries over), so displacement and footprint refer to step 0.
 Checker::Checker(const World& world, const Diagnostics& initial, const Domain& domain)
     : scene_(world.scene()), domain_(domain), start_(make_trajectory(world.scene())), initial_energy_(initial.energy()) {
     Frame f = capture_frame(world, initial, 0, 0.0, domain);
+    f.positions = gather_rows(domain, world, 3, [&world](std::size_t i, double* out) {
+        for (int c = 0; c < 3; ++c) out[c] = world.origin(i)[static_cast<std::size_t>(c)];
+    });
     for (const PositionCheck& c : scene_.checks.positions) {
         checked_.push_back(static_cast<std::uint32_t>(c.body));
         const double x = domain.root() ? f.position(static_cast<std::size_t>(c.body))[c.axis] : 0.0;
@@ -72,6 +77,19 @@ Checker::Checker(const World& world, const Diagnostics& initial, const Domain& d
     std::sort(checked_.begin(), checked_.end());
     checked_.erase(std::unique(checked_.begin(), checked_.end()), checked_.end());
     start_.frames.push_back(std::move(f));
+}
+
+nlohmann::json Checker::state() const {
+    return {{"initial_energy", initial_energy_}, {"max_penetration", max_penetration_},
+            {"max_energy_gain", max_energy_gain_}, {"extremes", extremes_}};
+}
+
+void Checker::restore(const nlohmann::json& s) {
+    initial_energy_ = s.at("initial_energy").get<double>();
+    max_penetration_ = s.at("max_penetration").get<double>();
+    max_energy_gain_ = s.at("max_energy_gain").get<double>();
+    const auto ex = s.at("extremes").get<std::vector<Vec3>>();
+    if (ex.size() == extremes_.size()) extremes_ = ex;
 }
 
 void Checker::observe(const World& world, const Diagnostics& d) {

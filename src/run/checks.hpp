@@ -25,6 +25,9 @@ public:
     void observe(const World& world, const Diagnostics& d);
     // {passed, items: [{name, value, bound, passed}]} for the state of `world` now.
     nlohmann::json result(const World& world, const Diagnostics& last) const;
+    // What a restarted run must carry on with (the root's; collective restore).
+    nlohmann::json state() const;
+    void restore(const nlohmann::json& state);
 
 private:
     const Scene& scene_;

@@ -123,6 +123,16 @@ Guard::Guard(const World& world, const Diagnostics& initial, const Domain& domai
 
 double Guard::energy_bound(double time) const { return base_bound_ + motor_power_ * time; }
 
+nlohmann::json Guard::state() const {
+    return {{"initial_energy", initial_energy_}, {"base_bound", base_bound_}, {"motor_power", motor_power_}};
+}
+
+void Guard::restore(const nlohmann::json& s) {
+    initial_energy_ = s.at("initial_energy").get<double>();
+    base_bound_ = s.at("base_bound").get<double>();
+    motor_power_ = s.at("motor_power").get<double>();
+}
+
 nlohmann::json Guard::describe() const {
     return {{"finite_check", "every step"},
             {"energy_check", scene_.guard.energy ? "every observed step" : "off"},

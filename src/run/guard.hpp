@@ -38,6 +38,9 @@ public:
     // Allowed growth of the total energy (J) after `time` seconds.
     double energy_bound(double time) const;
     nlohmann::json describe() const;
+    // What a restarted run must carry on with: the initial energy and bounds.
+    nlohmann::json state() const;
+    void restore(const nlohmann::json& state);
 
 private:
     struct State {

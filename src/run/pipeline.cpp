@@ -4,6 +4,8 @@
 #include <chrono>
 
 #include "domain/gather.hpp"
+#include "io/checkpoint.hpp"
+#include "util/hash.hpp"
 #include "io/output_error.hpp"
 #include "forces/controller.hpp"
 
@@ -26,6 +28,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     backend_->set_geoms(world_->space(), &world_->geoms());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());
+    if (!options.restart_path.empty()) restore(options.restart_path, gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
     if (stage(Stage::Output).enabled && domain_->root()) {
@@ -43,12 +46,79 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
     timed(Stage::Collide, [this] { run_collide(); });
     initial_ = observe(*world_, contacts_, *domain_);
+    last_ = initial_;
     guard_ = std::make_unique<Guard>(*world_, initial_, *domain_, options.dump_path);
     if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_, *domain_);
+    if (!restart_meta_.is_null()) restore_run_state(restart_meta_.at("run"));
     if (options.record_trajectory) {
         trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
-        trajectory_->frames.push_back(capture_frame(*world_, initial_, 0, 0.0, *domain_));
+        trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, *domain_));
     }
+}
+
+// Bodies from the checkpoint (this process's initial ids), ODE's dRand, the
+// step counter and the warm-start impulses of those bodies.
+void Pipeline::restore(const std::string& path, const std::vector<std::uint32_t>& gids) {
+    const Checkpoint c = read_checkpoint(path);
+    const auto& m = c.meta;
+    if (m.value("scene_digest", std::string()) != hex64(scene_.digest) || c.bodies != scene_.body_count()) {
+        throw std::invalid_argument("--restart " + path + ": written for scene '" + m.value("scene", std::string("?")) +
+                                    "' (" + m.value("scene_file", std::string("?")) + ", digest " +
+                                    m.value("scene_digest", std::string("?")) + ", " + std::to_string(c.bodies) +
+                                    " bodies), not for this one (digest " + hex64(scene_.digest) + ", " +
+                                    std::to_string(scene_.body_count()) + " bodies): restart with the same scene "
+                                    "file and the same --set options");
+    }
+    const std::vector<CheckpointRecord> records = read_records(c, gids);
+    std::int64_t inexact = 0;
+    for (std::size_t k = 0; k < gids.size(); ++k) {
+        const std::size_t local = world_->local_of(gids[k]);
+        if (!world_->restore_state(local, records[k].state, records[k].ode_q)) ++inexact;
+        world_->set_origin(local, records[k].origin);
+        if (!records[k].enabled) dBodyDisable(world_->body(local));
+    }
+    inexact_ = domain_->sum(inexact);
+    if (auto* warm = solver_->warm_impulses()) *warm = read_impulses(c, gids);
+    dRandSetSeed(m.at("drand_seed").get<unsigned long>());
+    steps_ = first_step_ = static_cast<int>(c.step);
+    last_observed_ = steps_;
+    restart_meta_ = m;
+}
+
+std::string Pipeline::restart_caveat() const {
+    if (inexact_ > 0) return std::to_string(inexact_) + " bodies could not be given their exact quaternion";
+    if (scene_.solver.auto_disable) {
+        return "solver.auto_disable: ODE keeps its sleep counters to itself, so they start afresh and bodies may fall "
+               "asleep a few steps apart from the uninterrupted run";
+    }
+    return "";
+}
+
+// Totals, guard and checks carry on from where the checkpointed run was.
+void Pipeline::restore_run_state(const nlohmann::json& run) {
+    const auto& t = run.at("totals");
+    // The contacts of the restart step (collided at construction, reused by
+    // the next step) come on top of the checkpointed sum.
+    totals_.contacts = (domain_->root() ? t.at("contacts").get<std::size_t>() : 0) + contacts_.size();
+    totals_.max_penetration = t.at("max_penetration").get<double>();
+    totals_.penetration_sum = t.at("penetration_sum").get<double>();
+    totals_.observed_contacts = t.at("observed_contacts").get<std::size_t>();
+    guard_->restore(run.at("guard"));
+    if (checker_ && run.contains("checks")) checker_->restore(run.at("checks"));
+}
+
+void Pipeline::write_checkpoint(const std::string& path) const {
+    const std::int64_t contacts = domain_->sum(static_cast<std::int64_t>(totals_.contacts));
+    nlohmann::json run = {{"totals", {{"contacts", contacts}, {"max_penetration", totals_.max_penetration},
+                                      {"penetration_sum", totals_.penetration_sum},
+                                      {"observed_contacts", totals_.observed_contacts}}},
+                          {"guard", guard_->state()}};
+    if (checker_) run["checks"] = checker_->state();
+    const nlohmann::json meta = {{"step", steps_}, {"time", steps_ * scene_.dt}, {"dt", scene_.dt},
+                                 {"scene", scene_.name}, {"scene_file", scene_.source},
+                                 {"scene_digest", hex64(scene_.digest)}, {"seed", scene_.seed},
+                                 {"drand_seed", dRandGetSeed()}, {"solver", solver_->name()}, {"run", run}};
+    parode::write_checkpoint(path, *domain_, *world_, solver_->warm_impulses(), meta);
 }
 
 nlohmann::json Pipeline::checks_result() const {

@@ -46,6 +46,7 @@ struct RunOptions {
     bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
     std::string dump_path;           // guard: where to write the last good state on failure
     Domain* domain = nullptr;        // the processes of the run; null: this one alone
+    std::string restart_path;        // continue from this checkpoint
     int invariants_every = 0;        // steps between invariant checks; 0: the build's default
 };
 
@@ -86,9 +87,19 @@ public:
     // The [checks] verdict for the current state (null when the scene has no [checks]).
     nlohmann::json checks_result() const;
     const SolverBackend& solver() const { return *solver_; }
+    // Collective: writes everything the next step depends on (io/checkpoint.hpp).
+    void write_checkpoint(const std::string& path) const;
+    // Restarted runs: bodies whose stored quaternion ODE could not be given
+    // exactly (0 means the restart is bit for bit).
+    std::int64_t inexact_restores() const { return inexact_; }
+    // Empty when a restart continues the checkpointed run bit for bit, else why not.
+    std::string restart_caveat() const;
+    int first_step() const { return first_step_; }
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
+    void restore(const std::string& path, const std::vector<std::uint32_t>& gids);
+    void restore_run_state(const nlohmann::json& run);
     void run_migrate();
     void run_forces();
     void run_collide();
@@ -120,7 +131,10 @@ private:
     int snapshot_every_ = 0;
     int invariants_every_ = 0;
     int steps_ = 0;
+    int first_step_ = 0;
     int last_observed_ = -1;
+    std::int64_t inexact_ = 0;
+    nlohmann::json restart_meta_;
     std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
 };
 

@@ -19,6 +19,7 @@ public:
     void step(World& world, const ContactBuffer& /*contacts*/) override {
         if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
         else dWorldStep(world.id(), scene_.dt);
+        world.settle_quaternions();
     }
 
 private:
@@ -48,6 +49,7 @@ public:
         if (!impl_) attach(world.id());
         if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
         else dWorldStep(world.id(), scene_.dt);
+        world.settle_quaternions();
     }
 
 private:

@@ -203,24 +203,19 @@ void World::set_pose(std::size_t local, const double x[3], const double q[4]) {
     for (int k = 0; k < 4; ++k) q_in_[local][static_cast<std::size_t>(k)] = q[k];
 }
 
-bool World::restore_state(std::size_t local, const BodyState& s) {
+bool World::restore_state(std::size_t local, const BodyState& s, const double ode_q[4]) {
     set_state(local, s);
-    dBodyID b = bodies_[local];
-    auto exact = [b, &s] {
-        const dReal* q = dBodyGetQuaternion(b);
-        return q[0] == s.q[0] && q[1] == s.q[1] && q[2] == s.q[2] && q[3] == s.q[3];
-    };
-    for (int j = 1; j <= 16 && !exact(); ++j) {  // scale by 1 +- j ulp until ODE's normalisation lands on q
-        for (const double sign : {1.0, -1.0}) {
-            const double f = 1.0 + sign * j * 0x1.0p-52;
-            const double in[4] = {s.q[0] * f, s.q[1] * f, s.q[2] * f, s.q[3] * f};
-            set_pose(local, s.x, in);
-            if (exact()) return true;
-        }
+    const dReal* q = dBodyGetQuaternion(bodies_[local]);
+    return q[0] == ode_q[0] && q[1] == ode_q[1] && q[2] == ode_q[2] && q[3] == ode_q[3];
+}
+
+void World::settle_quaternions() {
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {
+        const dReal* q = dBodyGetQuaternion(bodies_[i]);
+        const dQuaternion in = {q[0], q[1], q[2], q[3]};
+        for (int k = 0; k < 4; ++k) q_in_[i][static_cast<std::size_t>(k)] = in[k];
+        dBodySetQuaternion(bodies_[i], in);
     }
-    if (exact()) return true;
-    set_state(local, s);
-    return false;
 }
 
 int World::material_of(std::uint32_t geom_id) const {

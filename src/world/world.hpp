@@ -87,11 +87,15 @@ public:
     void set_state(std::size_t local, const BodyState& s);
     // Position and quaternion input, as the project's integrator sets them.
     void set_pose(std::size_t local, const double x[3], const double q[4]);
-    // Sets a body so that ODE's stored quaternion is exactly `q` (ODE
-    // normalises its input: inputs next to `q` are tried until one maps onto
-    // it). False when none did (the stored quaternion then differs from `q`
-    // in its last bits).
-    bool restore_state(std::size_t local, const BodyState& s);
+    // Sets a body from a saved state; true when ODE then holds exactly the
+    // quaternion `ode_q` it held when the state was saved.
+    bool restore_state(std::size_t local, const BodyState& s, const double ode_q[4]);
+    // After a step of ODE's own stepper: hands every body its quaternion
+    // again, recording it as the input. ODE normalises what it is given, and
+    // the quaternion its stepper leaves is the normalisation of an input
+    // nobody knows; afterwards it is the normalisation of a recorded one, so
+    // that a checkpoint can restore the body bit for bit.
+    void settle_quaternions();
 
     // Surface parameters for a contact between two materials (mixed once, cached).
     const dSurfaceParameters& surface(int a, int b) const;
