@@ -1,7 +1,10 @@
 // Command-line helpers (see cli_common.hpp).
 #include "cli_common.hpp"
-#include "processes.hpp"
 
+#include <sched.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -15,6 +18,7 @@
 #include "collide/collide.hpp"
 #include "io/error_metrics.hpp"
 #include "io/output_error.hpp"
+#include "processes.hpp"
 #include "progress.hpp"
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
@@ -66,17 +70,65 @@ CLI::Validator number_in(double lo, double hi) {
         "NUMBER in " + range);
 }
 
-int resolve_threads(int requested) {
-    if (requested > 0) return requested;
-    const char* env = std::getenv("OMP_NUM_THREADS");
-    if (!env || !*env) return 1;
+namespace {
+
+int parse_threads(const char* name, const char* env) {
     const std::string first = std::string(env).substr(0, std::string(env).find(','));  // "4,2": nested levels
     long n = 0;
     if (!parse_long(first, n) || n < 1 || n > kMaxThreads) {
-        throw std::invalid_argument("OMP_NUM_THREADS=" + std::string(env) + ": expected an integer in [1, " +
+        throw std::invalid_argument(std::string(name) + "=" + env + ": expected an integer in [1, " +
                                     std::to_string(kMaxThreads) + "] (or pass --threads)");
     }
     return static_cast<int>(n);
+}
+
+// Ranks of this node, when an MPI launcher says.
+int local_ranks() {
+    for (const char* v : {"OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS", "SLURM_NTASKS_PER_NODE"}) {
+        long n = 0;
+        if (const char* s = std::getenv(v); s && parse_long(s, n) && n > 0) return static_cast<int>(n);
+    }
+    return 1;
+}
+
+Threads affinity_threads() {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) != 0) return {1, "one core (the affinity mask could not be read)"};
+    const int mine = std::max(1, CPU_COUNT(&set));
+    const long online = sysconf(_SC_NPROCESSORS_ONLN);
+    const int ranks = local_ranks();
+    if (ranks > 1 && mine >= online) {
+        return {std::max(1, mine / ranks), "the node's " + std::to_string(mine) + " cores shared by its " +
+                                               std::to_string(ranks) + " ranks"};
+    }
+    return {std::min(mine, kMaxThreads), "the " + std::to_string(mine) + " cores of the affinity mask"};
+}
+
+}  // namespace
+
+Threads resolve_threads(int requested, int scene_threads) {
+    if (requested > 0) return {requested, "--threads"};
+    if (scene_threads > 0) return {scene_threads, "the scene's [run] threads"};
+    if (const char* env = std::getenv("OMP_NUM_THREADS"); env && *env) {
+        return {parse_threads("OMP_NUM_THREADS", env), "OMP_NUM_THREADS"};
+    }
+    if (const char* env = std::getenv("SLURM_CPUS_PER_TASK"); env && *env) {
+        return {parse_threads("SLURM_CPUS_PER_TASK", env), "SLURM_CPUS_PER_TASK"};
+    }
+    return affinity_threads();
+}
+
+std::string resolve_backend(const std::string& flag, const std::string& from_scene, const std::string& where,
+                            const std::vector<std::string>& known, const char* fallback) {
+    if (!flag.empty()) return flag;
+    if (from_scene.empty()) return fallback;
+    if (std::find(known.begin(), known.end(), from_scene) == known.end()) {
+        std::string list;
+        for (const auto& k : known) list += (list.empty() ? "\"" : ", \"") + k + "\"";
+        throw SceneError(where + ": expected one of " + list + ", got \"" + from_scene + "\"");
+    }
+    return from_scene;
 }
 
 std::string backend_list() {

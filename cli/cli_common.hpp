@@ -37,7 +37,22 @@ CLI::Validator number_in(double lo, double hi);
 
 // --threads if given (1..kMaxThreads), else OMP_NUM_THREADS (same range, else
 // std::invalid_argument), else 1. 0 means "not given".
-int resolve_threads(int requested);
+// Threads of a run and where the number came from: `requested` (> 0), else
+// the scene's [run] threads (> 0), else OMP_NUM_THREADS, else Slurm's CPUs per
+// task, else the cores of the process's affinity mask (shared among the MPI
+// ranks of the node when every rank sees the whole node).
+struct Threads {
+    int count = 1;
+    std::string source;
+};
+Threads resolve_threads(int requested, int scene_threads = 0);
+// The collide backend and solver of a run: the command line's, else the
+// scene's [run] table's (checked: a SceneError names the file, line and key),
+// else the fastest defaults (kDefaultCollide, kDefaultSolver).
+inline const char* kDefaultCollide = "grid";
+inline const char* kDefaultSolver = "parallel";
+std::string resolve_backend(const std::string& flag, const std::string& from_scene, const std::string& where,
+                            const std::vector<std::string>& known, const char* fallback);
 std::string backend_list();
 std::string solver_list();
 

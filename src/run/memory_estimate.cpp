@@ -173,9 +173,11 @@ MemoryAvailable available_memory() {
 
 void require_memory(const MemoryEstimate& need, const MemoryAvailable& have) {
     if (need.bytes <= have.bytes) return;
+    const bool hash = need.detail.find("ode-hash") != std::string::npos;
     throw MemoryError("the run needs about " + format_bytes(need.bytes) + " (" + need.detail + ") but " +
-                      format_bytes(have.bytes) + " is available (" + have.source +
-                      "); use fewer catoms or a larger machine");
+                      format_bytes(have.bytes) + " is available (" + have.source + "); " +
+                      (hash ? "--collide grid gives the same contacts without the hash space's geoms^2/8-byte matrix"
+                            : "use fewer catoms or a larger machine"));
 }
 
 std::string format_bytes(double bytes) {

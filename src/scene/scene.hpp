@@ -177,6 +177,15 @@ struct CatomBlock {
     Vec3 position(std::size_t n) const;
 };
 
+// [run]: the backends and threads a scene asks for (the command line
+// overrides them). Empty / 0: not given. The names are checked against the
+// registries when the run starts (`where` names file and line).
+struct RunSpec {
+    std::string collide, solver;
+    int threads = 0;
+    std::string collide_where, solver_where;
+};
+
 // [parallel]: how a distributed run keeps its load balanced.
 struct ParallelSpec {
     double rebalance_threshold = 1.25;  // repartition when max load / mean load exceeds this
@@ -205,6 +214,7 @@ struct Scene {
     GuardSpec guard;
     CheckSpec checks;
     ParallelSpec parallel;
+    RunSpec run;
 
     // Every body, [[bodies]] and generated catoms: global ids 0 .. body_count() - 1.
     std::size_t body_count() const { return bodies.size() + catoms.count; }

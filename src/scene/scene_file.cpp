@@ -302,6 +302,21 @@ void read_controller(const Node& root, Scene& sc) {
     c.drive_fmax = t.number("drive_fmax", c.drive_fmax, 0.0);
 }
 
+void read_run(const Node& root, RunSpec& r) {
+    if (!root.has("run")) return;
+    const Node t = root.at("run");
+    t.expect_keys({"collide", "solver", "threads"});
+    if (t.has("collide")) {
+        r.collide = t.string("collide", "");
+        r.collide_where = where(t.at("collide").value()) + ": key 'run.collide'";
+    }
+    if (t.has("solver")) {
+        r.solver = t.string("solver", "");
+        r.solver_where = where(t.at("solver").value()) + ": key 'run.solver'";
+    }
+    r.threads = static_cast<int>(t.integer("threads", 0, 1, 1024));
+}
+
 void read_parallel(const Node& root, ParallelSpec& p) {
     if (!root.has("parallel")) return;
     const Node t = root.at("parallel");
@@ -327,10 +342,11 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     for (const auto& o : overrides) apply_override(data, o);
     const Node root(data, "");
     root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
-                      "catoms", "magnets", "controller", "guard", "checks", "parallel"});
+                      "catoms", "magnets", "controller", "guard", "checks", "parallel", "run"});
     Scene sc;
     sc.source = name;
     read_scene_table(root, sc);
+    read_run(root, sc.run);
     read_solver(root, sc.solver);
     read_materials(root, sc);
     read_planes(root, sc);
