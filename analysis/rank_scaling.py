@@ -80,7 +80,8 @@ def summarise(df):
                 out.loc[same.index, "speedup"] = t1 / same["ms"]
                 out.loc[same.index, "efficiency"] = t1 / same["ms"] / (same.ranks * same.threads)
         else:
-            for t, same in part.groupby("threads"):
+            per_rank = part.catoms // part.ranks
+            for _, same in part.groupby([part.threads, per_rank]):
                 base = same[same.ranks == 1]
                 if base.empty:
                     continue
@@ -115,11 +116,14 @@ def markdown(out, bad):
 
 def series(out):
     """(label, rows sorted by cores) per line of the speed-up and efficiency plots."""
-    out = out.assign(cores=out.ranks * out.threads)
-    for (mode, n), part in out.groupby(["mode", "catoms"]):
+    out = out.assign(cores=out.ranks * out.threads, size=out.catoms)
+    weak = out["mode"] == "weak"
+    out.loc[weak, "size"] = out.catoms[weak] // out.ranks[weak]  # weak: catoms per rank
+    for (mode, n), part in out.groupby(["mode", "size"]):
         fixed, free = ("ranks", "threads") if mode == "threads" else ("threads", "ranks")
+        size = f"{n} catoms per rank" if mode == "weak" else f"{n} catoms"
         for v, line in part.groupby(fixed):
-            yield f"{mode}, {n} catoms, {v} {fixed[:-1] if v == 1 else fixed}", mode, line.sort_values("cores"), free
+            yield f"{mode}, {size}, {v} {fixed[:-1] if v == 1 else fixed}", mode, line.sort_values("cores"), free
 
 
 def plot(out, path, title=""):

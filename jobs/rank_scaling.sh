@@ -48,7 +48,7 @@ fi
 PER_RANK="${PER_RANK:-250000}"
 STEPS="${STEPS:-5}"
 REPEATS="${REPEATS:-3}"
-SCENE="${SCENE:-$ROOT/jobs/scenes/tennis.toml}"
+SCENE="${SCENE:-$(realpath --relative-to=. "$ROOT/jobs/scenes/tennis.toml")}"  # relative: reports name it so
 OUT="${OUT:-$ROOT/results/scaling-$(hostname)/$MODE}"
 NICE="${NICE:-0}"
 
