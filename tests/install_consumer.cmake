@@ -1,7 +1,7 @@
 # ctest driver (cmake -P): installs the build into a fresh temporary prefix,
 # checks the installed layout and program, then configures, builds and runs
 # tests/consumer against that prefix only. Variables: BUILD_DIR, SOURCE_DIR,
-# WORK_DIR, GENERATOR, CXX_COMPILER, C_COMPILER.
+# WORK_DIR, GENERATOR, CXX_COMPILER, C_COMPILER, LINK_FLAGS (may be empty).
 # Trade-off: a real install and a real find_package in a separate CMake
 # project (seconds of configure and compile) rather than checking the
 # generated files by eye: what a user's project sees is what is tested.
@@ -44,7 +44,8 @@ endif()
 
 step("configure the consumer" "${CMAKE_COMMAND}" -S "${SOURCE_DIR}/tests/consumer" -B "${WORK_DIR}/build"
      -G "${GENERATOR}" "-DCMAKE_PREFIX_PATH=${prefix}" "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}"
-     "-DCMAKE_C_COMPILER=${C_COMPILER}" -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON)
+     "-DCMAKE_C_COMPILER=${C_COMPILER}" "-DCMAKE_EXE_LINKER_FLAGS=${LINK_FLAGS}"
+     -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON)
 step("build the consumer" "${CMAKE_COMMAND}" --build "${WORK_DIR}/build")
 step("run the consumer" "${WORK_DIR}/build/consumer")
 if(NOT step_output MATCHES "consumer: ok")
