@@ -21,6 +21,8 @@
 #   "--set catoms.count=1000000")  PARODE=build/ci/parode
 #   MAX_SEGMENTS=20  RESTART, SEGMENT (set by the chain)  DRY_RUN=1: print the
 #   commands (the segment's run, and the resubmission) instead of running them.
+# Needs python3 on the node that runs the job script (it reads the
+# checkpoint's step and the report's mark).
 # Trade-off: the chain restarts from the checkpoint file, not from the step
 # count in a report, so a segment that dies without writing one (a node
 # failure) is simply resubmitted by hand with the same RESTART; the previous
