@@ -2,8 +2,9 @@
 """Speed-up and parallel efficiency over MPI ranks x OpenMP threads.
 
 Reads the JSON run reports that jobs/rank_scaling.sh writes (one per run,
-repeats allowed) and, per (mode, ranks, threads), takes the median ms/step and
-per-stage time over repeats. Strong scaling (the same catoms for every run):
+repeats allowed; the mode, strong, weak or threads, from the file name) and,
+per (mode, catoms, ranks, threads), takes the median ms/step and per-stage
+time over repeats. Strong and thread scaling (the same catoms for every run):
 speed-up = t(1 rank, 1 thread) / t and efficiency = speed-up / (ranks x
 threads). Weak scaling (catoms per rank fixed): efficiency = t(1 rank) / t at
 the same thread count. Also reports ghost fraction, communication share,
@@ -11,10 +12,13 @@ messages per step, peak memory per rank, and whether every run of one size
 gave the same state hash.
 
 Writes OUT/rank_scaling.md, OUT/rank_scaling.csv and OUT/rank_scaling.png
-(speed-up, efficiency, and time per stage as stacked bars).
-Trade-off: medians hide the spread; the CSV keeps min and max for that.
+(speed-up and efficiency against cores = ranks x threads, one line per series
+with the ideal drawn, and time per stage per run as stacked bars).
+Trade-off: medians hide the spread; the CSV keeps min and max for that, and
+the plots draw it as error bars.
 
-Usage: python3 analysis/rank_scaling.py DIR [--out OUT]   (OUT defaults to DIR)
+Usage: python3 analysis/rank_scaling.py DIR [DIR ...] [--out OUT] [--title TEXT]
+       (OUT defaults to the first DIR)
 """
 import argparse
 import glob
@@ -24,7 +28,8 @@ import sys
 
 import pandas as pd
 
-STAGES = ["migrate", "exchange", "forces", "collide", "solve", "observe", "output"]
+STAGES = ["migrate", "exchange", "forces", "collide", "joints", "solve", "observe", "output"]
+MODES = ("strong", "weak", "threads")
 
 
 def load(directory):
@@ -39,7 +44,7 @@ def load(directory):
         if "ms_per_step" not in r or not r.get("steps"):
             continue
         name = os.path.basename(path)
-        mode = name.split("-")[0] if name.split("-")[0] in ("strong", "weak") else "strong"
+        mode = name.split("-")[0] if name.split("-")[0] in MODES else "strong"
         steps = r["steps"]
         par = r.get("parallel", {})
         row = {"mode": mode, "catoms": r["bodies"], "ranks": r.get("ranks", 1), "threads": r["threads"],
@@ -66,7 +71,7 @@ def summarise(df):
     out["comm_share"] = out["comm_s"] / out["wall"].where(out["wall"] > 0, 1)
     for mode, part in out.groupby("mode"):
         idx = part.index
-        if mode == "strong":
+        if mode in ("strong", "threads"):
             for n, same in part.groupby("catoms"):
                 base = same[(same.ranks == 1) & (same.threads == 1)]
                 if base.empty:
@@ -75,7 +80,8 @@ def summarise(df):
                 out.loc[same.index, "speedup"] = t1 / same["ms"]
                 out.loc[same.index, "efficiency"] = t1 / same["ms"] / (same.ranks * same.threads)
         else:
-            for t, same in part.groupby("threads"):
+            per_rank = part.catoms // part.ranks
+            for _, same in part.groupby([part.threads, per_rank]):
                 base = same[same.ranks == 1]
                 if base.empty:
                     continue
@@ -108,48 +114,70 @@ def markdown(out, bad):
     return "\n".join(lines) + "\n"
 
 
-def plot(out, path):
+def series(out):
+    """(label, rows sorted by cores) per line of the speed-up and efficiency plots."""
+    out = out.assign(cores=out.ranks * out.threads, size=out.catoms)
+    weak = out["mode"] == "weak"
+    out.loc[weak, "size"] = out.catoms[weak] // out.ranks[weak]  # weak: catoms per rank
+    for (mode, n), part in out.groupby(["mode", "size"]):
+        fixed, free = ("ranks", "threads") if mode == "threads" else ("threads", "ranks")
+        size = f"{n} catoms per rank" if mode == "weak" else f"{n} catoms"
+        for v, line in part.groupby(fixed):
+            yield f"{mode}, {size}, {v} {fixed[:-1] if v == 1 else fixed}", mode, line.sort_values("cores"), free
+
+
+def plot(out, path, title=""):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
-    for (mode, n, t), part in out.groupby(["mode", "catoms", "threads"]):
-        part = part.sort_values("ranks")
-        label = f"{mode} {n} catoms, {t} thr"
-        if mode == "strong" and "speedup" in part:
-            axes[0].plot(part.ranks, part.speedup, "o-", label=label)
-        axes[1].plot(part.ranks, part.efficiency, "o-", label=label)
-    axes[0].set(xlabel="ranks", ylabel="speed-up vs 1 rank x 1 thread", title="strong scaling")
-    axes[1].set(xlabel="ranks", ylabel="efficiency", title="parallel efficiency", ylim=(0, 1.2))
-    labels = [f"{r.mode[0]} n={r.catoms}\n{r.ranks}r x {r.threads}t" for r in out.itertuples()]
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), gridspec_kw={"width_ratios": [1, 1, 1.4]})
+    top = 1
+    for label, mode, line, free in series(out):
+        cores = line.ranks * line.threads
+        top = max(top, cores.max())
+        if mode != "weak":
+            spread = [line.speedup - line.speedup * line.ms / line.ms_max, line.speedup * line.ms / line.ms_min - line.speedup]
+            axes[0].errorbar(cores, line.speedup, yerr=spread, fmt="o-", capsize=3, label=f"{label} (over {free})")
+        axes[1].plot(cores, line.efficiency, "o-", label=f"{label} (over {free})")
+    axes[0].plot([1, top], [1, top], "k:", label="ideal")
+    axes[1].axhline(1, color="k", ls=":", label="ideal")
+    axes[0].set(xlabel="cores (ranks x threads)", ylabel="speed-up vs 1 rank x 1 thread", title="speed-up")
+    axes[1].set(xlabel="cores (ranks x threads)", ylabel="efficiency", title="parallel efficiency", ylim=(0, 1.2))
+    labels = [f"{r.mode}\nn={r.catoms}\n{r.ranks}r x {r.threads}t" for r in out.itertuples()]
     bottom = [0.0] * len(out)
-    for s in STAGES:
-        vals = list(out[s])
+    for stage in STAGES:
+        vals = list(out[stage])
         if sum(vals) == 0:
             continue
-        axes[2].bar(range(len(out)), vals, bottom=bottom, label=s)
+        axes[2].bar(range(len(out)), vals, bottom=bottom, label=stage)
         bottom = [b + v for b, v in zip(bottom, vals)]
     axes[2].set_xticks(range(len(out)), labels, fontsize=7)
-    axes[2].set(ylabel="ms per step (max over ranks)", title="time per stage")
+    axes[2].set(ylabel="ms per step (slowest rank, median run)", title="time per stage")
     for ax in axes:
         ax.legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("dir")
-    ap.add_argument("--out")
+    ap.add_argument("dirs", nargs="+", metavar="DIR", help="folders of run reports")
+    ap.add_argument("--out", help="where the tables and the plot go (default: the first DIR)")
+    ap.add_argument("--title", default="", help="title of the plot (the machine, say)")
     a = ap.parse_args()
-    if not os.path.isdir(a.dir):
-        print(f"rank_scaling: {a.dir}: no such folder", file=sys.stderr)
-        sys.exit(2)
-    df = load(a.dir)
+    frames = []
+    for d in a.dirs:
+        if not os.path.isdir(d):
+            print(f"rank_scaling: {d}: no such folder", file=sys.stderr)
+            sys.exit(2)
+        frames.append(load(d))
+    df = pd.concat(frames, ignore_index=True)
     if df.empty:
-        print(f"rank_scaling: {a.dir}: no run reports", file=sys.stderr)
+        print(f"rank_scaling: {', '.join(a.dirs)}: no run reports", file=sys.stderr)
         sys.exit(2)
-    out_dir = a.out or a.dir
+    out_dir = a.out or a.dirs[0]
     os.makedirs(out_dir, exist_ok=True)
     out = summarise(df)
     bad = hashes_agree(df)
@@ -158,7 +186,7 @@ def main():
     with open(os.path.join(out_dir, "rank_scaling.md"), "w") as f:
         f.write(text)
     out.to_csv(os.path.join(out_dir, "rank_scaling.csv"), index=False)
-    plot(out, os.path.join(out_dir, "rank_scaling.png"))
+    plot(out, os.path.join(out_dir, "rank_scaling.png"), a.title)
     sys.exit(1 if bad else 0)
 
 

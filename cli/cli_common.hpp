@@ -116,6 +116,19 @@ struct LatencyArgs {
     std::string json;
 };
 void add_latency(CLI::App& app, LatencyArgs& a, std::function<int()>& action);
+struct InfoArgs {
+    std::string scene;
+    std::vector<std::string> sets;
+    std::string collide;  // empty: the scene's [run], else the default (as `parode run`)
+    std::string solver;
+    int threads = 0;  // 0: not given
+    int ranks = 1;
+    long steps = -1;  // -1: the scene's
+    std::string json;
+    bool quiet = false;
+};
+void add_info(CLI::App& app, InfoArgs& a, std::function<int()>& action);
+
 // Writes a JSON document; throws std::runtime_error naming the file.
 void write_json(const std::string& path, const nlohmann::json& j);
 

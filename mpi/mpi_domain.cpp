@@ -5,6 +5,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "domain/distribution.hpp"
 #include "partition.hpp"
 #include "run/diagnostics.hpp"
 #include "run/pipeline.hpp"
@@ -58,24 +59,10 @@ MpiDomain::MpiDomain(const Scene& scene, const Comm& comm) : scene_(scene), comm
 }
 
 void MpiDomain::check_scene(const Scene& sc, const std::string& /*collide*/, const std::string& solver) const {
-    const std::string why = sc.source + ": a run on " + std::to_string(ranks()) + " MPI processes needs ";
-    const std::string one = "; run it as one process (without mpirun), with threads";
-    if (!sc.joints.empty()) throw SceneError(why + "a contact-only scene, and this one has joints" + one);
-    if (sc.controller.enabled) throw SceneError(why + "a contact-only scene, and this one has a [controller]" + one);
-    if (sc.solver.auto_disable) throw SceneError(why + "solver.auto_disable off (sleeping bodies need ODE's islands)" + one);
-    if (solver != "parallel" && solver != "pgs") {
-        throw std::invalid_argument("--solver " + solver + " runs ODE's stepper, which needs every body in one process; "
-                                    "use --solver parallel (parode's contact solver: the same result for any number of processes)");
-    }
-    if (sc.any_magnets()) {
-        const double rmax = sc.max_bounding_radius(), reach = 2 * rmax + sc.magnets.cutoff;
-        if (reach > cells_.edge()) {
-            throw SceneError(sc.source + ": magnets.cutoff = " + std::to_string(sc.magnets.cutoff) +
-                             " m reaches past the ghost halo of a distributed run (one cell of " +
-                             std::to_string(cells_.edge()) + " m): it must be at most 2 r_max = " +
-                             std::to_string(2 * rmax) + " m" + one);
-        }
-    }
+    const DistributionVerdict v = distribution_verdict(sc, solver, ranks(), cells_.edge());
+    if (v.ok) return;
+    if (v.option_error) throw std::invalid_argument(v.reason);
+    throw SceneError(v.reason);
 }
 
 std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) const {
@@ -85,9 +72,7 @@ std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) const {
     return ids;
 }
 
-std::string MpiDomain::why() const {
-    return std::to_string(ranks()) + " MPI processes, cells of " + std::to_string(cells_.edge()) + " m partitioned by METIS";
-}
+std::string MpiDomain::why() const { return distributed_why(ranks(), cells_.edge()); }
 
 void MpiDomain::setup(World& world, std::vector<WarmImpulse>* warm) {
     world_ = &world;

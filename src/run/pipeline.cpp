@@ -8,6 +8,7 @@
 #include "util/hash.hpp"
 #include "io/output_error.hpp"
 #include "forces/controller.hpp"
+#include "run/stage_plan.hpp"
 
 namespace parode {
 
@@ -126,24 +127,8 @@ nlohmann::json Pipeline::checks_result() const {
 }
 
 void Pipeline::plan_stages(const Scene& scene, const RunOptions& options) {
-    auto set = [this](Stage s, bool on, std::string why) {
-        stages_[static_cast<int>(s)].enabled = on;
-        stages_[static_cast<int>(s)].reason = std::move(why);
-    };
-    const bool many = domain_->distributed();
-    set(Stage::Migrate, many, domain_->why());
-    set(Stage::Exchange, many, domain_->why());
-    const bool magnets = scene.any_magnets();
-    const bool driver = scene.controller.enabled;
-    set(Stage::Forces, magnets || driver,
-        magnets && driver ? "magnets and controller" : magnets ? "magnets on" : driver ? "controller" : "no magnets, no controller");
-    set(Stage::Collide, true, "backend " + backend_->name());
-    const bool joints = solver_->uses_contact_joints();
-    set(Stage::Joints, joints, joints ? "ODE contact joints for " + solver_->name() : solver_->name() + " reads the contacts directly");
-    set(Stage::Solve, true, solver_->why());
-    set(Stage::Observe, true, "every " + std::to_string(scene.observe_every) + " steps; finite check every step");
-    const bool out = !options.snapshot_path.empty() && options.snapshot_every > 0;
-    set(Stage::Output, out, out ? "snapshot every " + std::to_string(options.snapshot_every) + " steps" : "no output requested");
+    stages_ = stage_plan(scene, {domain_->distributed(), domain_->why(), backend_->name(), solver_->uses_contact_joints(),
+                                 solver_->name(), solver_->why(), options.snapshot_path, options.snapshot_every});
 }
 
 template <class F>

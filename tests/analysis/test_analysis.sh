@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# ctest cases for the scripts under analysis/: each runs on the inputs
+# committed under analysis/results/ (or, for the buggy's path, on a short run
+# of the built parode) into a temporary folder and must write its files;
+# wrong inputs must end with a message and exit 2.
+# Usage: tests/analysis/test_analysis.sh CASE BUILD_DIR   (CASE: see the end)
+# Trade-off: the files are checked for presence and a few key lines, not
+# compared with the committed ones pixel for pixel (matplotlib versions
+# differ); the committed tables are what README cites.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+CASE="${1:?case}" BUILD="${2:?build dir}"
+WORK="$(mktemp -d)"
+trap 'rm -rf "$WORK"' EXIT
+RESULTS="$ROOT/analysis/results/vm-amd-epyc-2c"
+python3 -c "import numpy, pandas, matplotlib" 2>/dev/null || { echo "skipped: numpy, pandas or matplotlib missing (jobs/setup.sh)"; exit 77; }
+fail() { echo "FAIL: $*" >&2; cat "$WORK/out.txt" >&2 2>/dev/null || true; exit 1; }
+have() { for f in "$@"; do [ -s "$WORK/$f" ] || fail "$f was not written"; done; }
+expect() { grep -qE -- "$1" "$WORK/out.txt" || fail "the output lacks /$1/"; }
+
+case "$CASE" in
+  rank_scaling)
+    python3 "$ROOT/analysis/rank_scaling.py" "$RESULTS/scaling/threads" "$RESULTS/scaling/strong" \
+      "$RESULTS/scaling/weak" --out "$WORK" >"$WORK/out.txt"
+    have rank_scaling.md rank_scaling.csv rank_scaling.png
+    expect "^\| threads \| 8000 \| 1 \| 2 \|"
+    expect "^\| weak \| 8000 \| 2 \| 1 \|"
+    expect "state hash identical"
+    rc=0; python3 "$ROOT/analysis/rank_scaling.py" "$WORK/none" >"$WORK/out.txt" 2>&1 || rc=$?
+    [ "$rc" -eq 2 ] || fail "a missing folder exited $rc" ;;
+  scaling)  # the thread table of omp_scaling.sh, which writes into its folder
+    cp "$RESULTS"/scaling/threads/threads-*-1.json "$WORK/"
+    python3 "$ROOT/analysis/scaling.py" "$WORK" >"$WORK/out.txt"
+    have scaling.md
+    expect "state hash identical for every thread count" ;;
+  scene_pictures)
+    python3 "$ROOT/analysis/scene_pictures.py" "$RESULTS/pictures/tennis-frames.csv" --steps 0,500,1000 --dt 0.005 \
+      --out "$WORK/tennis.png" --save-frames "$WORK/again.csv" >"$WORK/out.txt"
+    have tennis.png again.csv
+    cmp -s "$WORK/again.csv" "$RESULTS/pictures/tennis-frames.csv" || fail "the frames do not read back as written"
+    python3 "$ROOT/analysis/scene_pictures.py" "$RESULTS/pictures/magnetic-tennis-frames.csv" --out "$WORK/m.png" >"$WORK/out.txt"
+    have m.png
+    expect "steps \[1000\]"
+    rc=0; python3 "$ROOT/analysis/scene_pictures.py" "$RESULTS/pictures/tennis-frames.csv" --steps 7 --out "$WORK/x.png" \
+      >"$WORK/out.txt" 2>&1 || rc=$?
+    [ "$rc" -eq 2 ] || fail "a missing step exited $rc"
+    expect "steps \[7\] are not in the file" ;;
+  scene_pictures_trajectory)  # a trajectory file straight from parode, step 0 included
+    "$BUILD/parode" run "$ROOT/jobs/scenes/tennis.toml" --set catoms.count=27 --steps 20 -q --trajectory "$WORK/t.traj"
+    python3 "$ROOT/analysis/scene_pictures.py" "$WORK/t.traj" --steps 0,20 --out "$WORK/t.png" --save-frames "$WORK/t.csv" >"$WORK/out.txt"
+    have t.png t.csv
+    [ "$(grep -c '^0,' "$WORK/t.csv")" -eq 27 ] || fail "step 0 does not hold the 27 catoms" ;;
+  speed_error)
+    python3 "$ROOT/analysis/speed_error.py" "$RESULTS/sweep" --out "$WORK" >"$WORK/out.txt"
+    have speed_error_tennis.csv speed_error_tennis.md speed_error_tennis.png speed_error_buggy.png ;;
+  stability_map)
+    python3 "$ROOT/analysis/stability_map.py" "$RESULTS/stability" --out "$WORK" >"$WORK/out.txt"
+    have stability_map.csv stability_map.md
+    cmp -s "$WORK/stability_map.md" "$ROOT/analysis/results/stability_map.md" ||
+      fail "the committed stability_map.md is not what its committed reports give" ;;
+  buggy_path)  # a short run of the buggy: one figure eight
+    "$BUILD/parode" run "$ROOT/jobs/scenes/buggy.toml" --duration 22 --snapshot "$WORK/buggy.csv" --snapshot-every 10 -q
+    python3 "$ROOT/analysis/buggy_path.py" "$WORK/buggy.csv" --out "$WORK/buggy.png" >"$WORK/out.txt"
+    have buggy.png ;;
+  *) echo "test_analysis.sh: unknown case '$CASE'" >&2; exit 2 ;;
+esac
+echo "ok: $CASE"
