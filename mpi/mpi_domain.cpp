@@ -133,7 +133,7 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
         owners[i] = take<std::int32_t>(result, at);
     }
     map_.assign(std::move(keys), std::move(owners), ranks());
-    hold_.assign(hold_.size(), nullptr);  // cached holders belong to the old map
+    ++epoch_;  // every body's cached owner and holders belong to the old map
 }
 
 // Collective: max over processes of (owned bodies + contacts) / the mean.
@@ -170,8 +170,7 @@ void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
     long sent = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
-        const Vec3 x = position(world, i);
-        const int to = map_.owner(cells_.key(x.data()));
+        const int to = place(world, i).owner;
         if (to == rank()) continue;
         Bytes& b = out[to];
         put(b, world.gid(i));
@@ -223,8 +222,7 @@ void MpiDomain::exchange_states(World& world) {
     std::map<int, std::vector<std::uint32_t>> sent;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
-        const Vec3 x = position(world, i);
-        for (int h : map_.holders(cells_.key(x.data()))) {
+        for (int h : holders(place(world, i))) {
             if (h == rank()) continue;
             put(out[h], world.gid(i));
             put(out[h], world.state(i));
@@ -273,17 +271,13 @@ void MpiDomain::exchange_states(World& world) {
 
 // Cells and holders of every local body, and the partners of the solver's
 // exchange: every process that holds a copy of any body held here.
-void MpiDomain::index_bodies(const World& world) {
+void MpiDomain::index_bodies(World& world) {
     const std::size_t n = world.body_count();
-    key_.resize(n);
-    hold_.resize(n);
+
     for (int r : nbrs_) nbr_index_[static_cast<std::size_t>(r)] = -1;
     nbrs_.clear();
     for (std::size_t i = 0; i < n; ++i) {
-        const Vec3 x = position(world, i);
-        key_[i] = cells_.key(x.data());
-        hold_[i] = &map_.holders(key_[i]);
-        for (int h : *hold_[i]) {
+        for (int h : holders(place(world, i))) {
             if (h == rank() || nbr_index_[static_cast<std::size_t>(h)] >= 0) continue;
             nbr_index_[static_cast<std::size_t>(h)] = static_cast<int>(nbrs_.size());
             nbrs_.push_back(h);
@@ -291,6 +285,19 @@ void MpiDomain::index_bodies(const World& world) {
     }
     std::sort(nbrs_.begin(), nbrs_.end());
     for (std::size_t j = 0; j < nbrs_.size(); ++j) nbr_index_[static_cast<std::size_t>(nbrs_[j])] = static_cast<int>(j);
+}
+
+// The body's cell, its owner and holders: cached with the body, looked up
+// only when it changed cell or the cells were repartitioned.
+const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
+    DomainSlot& s = world.slot(i);
+    const std::uint64_t key = cells_.key(dBodyGetPosition(world.body(i)));
+    if (s.cell == key && s.epoch == epoch_) return s;
+    s.cell = key;
+    s.owner = map_.owner(key);
+    s.holders = reinterpret_cast<std::uintptr_t>(&map_.holders(key));
+    s.epoch = epoch_;
+    return s;
 }
 
 void MpiDomain::exchange_forces(World& world) {
@@ -321,7 +328,7 @@ void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
     for (std::size_t c = 0; c < touched.size(); ++c) {
         corr_[c].assign(nbrs_.size(), {});
         for (std::uint32_t b : touched[c]) {
-            for (int h : *hold_[b]) {
+            for (int h : holders(world_->slot(b))) {
                 if (h != rank()) corr_[c][static_cast<std::size_t>(nbr_index_[static_cast<std::size_t>(h)])].push_back(b);
             }
         }
@@ -353,7 +360,7 @@ std::int64_t MpiDomain::ghost_mismatches(const World& world, std::string& detail
     std::map<int, Bytes> out;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (!world.ghost(i)) continue;
-        const int owner = map_.owner(key_[i]);
+        const int owner = world.slot(i).owner;
         put(out[owner], world.gid(i));
         put(out[owner], body_digest(world, i));
     }
@@ -379,8 +386,9 @@ void MpiDomain::check_invariants(const World& world, long step) {
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
         ids += SplitMix64::mix(world.gid(i));
-        if (map_.owner(key_[i]) != rank() && counts[2]++ < 5) {
-            os << " body " << world.gid(i) << " owned by rank " << rank() << " in a cell of rank " << map_.owner(key_[i]);
+        const int owner = map_.owner(world.slot(i).cell);  // from the map, not the cache
+        if (owner != rank() && counts[2]++ < 5) {
+            os << " body " << world.gid(i) << " owned by rank " << rank() << " in a cell of rank " << owner;
         }
     }
     std::string ghosts;

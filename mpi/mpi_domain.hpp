@@ -70,7 +70,11 @@ private:
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
     void move_bodies(World& world, std::vector<WarmImpulse>* warm);
     void receive_bodies(World& world, std::vector<WarmImpulse>* warm, const std::vector<std::pair<int, Bytes>>& in);
-    void index_bodies(const World& world);
+    void index_bodies(World& world);
+    const DomainSlot& place(World& world, std::size_t i) const;
+    static const std::vector<int>& holders(const DomainSlot& s) {
+        return *reinterpret_cast<const std::vector<int>*>(s.holders);
+    }
     double load_imbalance(const World& world, const std::vector<WarmImpulse>* warm) const;
     std::int64_t ghost_mismatches(const World& world, std::string& detail) const;
 
@@ -79,8 +83,7 @@ private:
     CellSpace cells_;
     CellMap map_;
     World* world_ = nullptr;
-    std::vector<std::uint64_t> key_;               // per local body: its cell
-    std::vector<const std::vector<int>*> hold_;    // per local body: holders of its cell
+    std::uint32_t epoch_ = 0;                      // partitions made so far
     std::vector<int> send_to_, recv_from_;         // ghost partners of this step
     std::vector<std::vector<std::uint32_t>> send_locals_, recv_locals_;
     std::vector<int> nbrs_;                        // partners of the solver's exchange

@@ -124,6 +124,7 @@ std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* stat
     ghost_.push_back(0);
     q_in_.push_back({s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3]});
     origin_.push_back(origin ? *origin : s.position);
+    slot_.emplace_back();
     geoms_.insert(geoms_.begin() + static_cast<std::ptrdiff_t>(local), g);
     map_.set(gid, static_cast<std::uint32_t>(local));
     ++owned_;
@@ -145,6 +146,7 @@ void World::remove_body(std::size_t local) {
         ghost_[local] = ghost_[last];
         q_in_[local] = q_in_[last];
         origin_[local] = origin_[last];
+        slot_[local] = slot_[last];
         geoms_[local] = geoms_[last];
         dBodySetData(bodies_[local], reinterpret_cast<void*>(static_cast<std::uintptr_t>(local)));
         map_.set(gids_[local], static_cast<std::uint32_t>(local));
@@ -154,6 +156,7 @@ void World::remove_body(std::size_t local) {
     ghost_.pop_back();
     q_in_.pop_back();
     origin_.pop_back();
+    slot_.pop_back();
     geoms_.erase(geoms_.begin() + static_cast<std::ptrdiff_t>(last));
     ++generation_;
 }

@@ -37,6 +37,16 @@ struct BodyState {
     double x[3], q[4], v[3], w[3];
 };
 
+// What the domain knows of a body's place (its cell, the cell's owner and
+// holders, under which partition), kept with the body as it moves in
+// storage so that a body that stays in its cell needs no lookup.
+struct DomainSlot {
+    std::uint64_t cell = ~0ULL;
+    std::uintptr_t holders = 0;  // the domain's handle for the cell's holders
+    std::int32_t owner = -1;
+    std::uint32_t epoch = ~0u;   // the partition the entry belongs to
+};
+
 class World {
 public:
     // Builds every body of the scene (local index = gid), or only `gids`.
@@ -66,6 +76,8 @@ public:
     // Bodies of the whole scene; geom ids below this are bodies.
     std::size_t global_body_count() const { return global_; }
     bool is_body_id(std::uint32_t id) const { return id < global_; }
+    DomainSlot& slot(std::size_t local) { return slot_[local]; }
+    const DomainSlot& slot(std::size_t local) const { return slot_[local]; }
     // Initial position of a local body (it travels with the body).
     const Vec3& origin(std::size_t local) const { return origin_[local]; }
     // Changes whenever a body is added, removed (local indices moved) or
@@ -123,6 +135,7 @@ private:
     std::vector<std::uint8_t> ghost_;
     std::vector<std::array<double, 4>> q_in_;
     std::vector<Vec3> origin_;
+    std::vector<DomainSlot> slot_;
     std::size_t owned_ = 0;
     IdMap map_;
     std::uint64_t generation_ = 0;
