@@ -51,7 +51,7 @@ chain_report_interrupted() {
   [ -f "$1" ] && python3 - "$1" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-sys.exit(0 if r.get("interrupted") is True or "interrupted" in [v for v in r.values() if isinstance(v, str)] else 1)
+sys.exit(0 if "interrupted" in r else 1)  # {"signal", "step", "checkpoint"}
 PY
 }
 

@@ -23,7 +23,7 @@ interrupted() {
   local meta
   meta="{\"step\": ${STUB_STEP:-600}, \"scene\": \"tennis\"}"
   { printf 'parode-checkpoint 1 %012d\n' 4096; printf '%-4063s' "$meta"; } >"$checkpoint"
-  echo '{"scene": "tennis", "interrupted": true}' >"$report"
+  echo '{"scene": "tennis", "interrupted": {"signal": "SIGTERM", "step": 600, "checkpoint": "x.ckpt"}}' >"$report"
   echo "stub: SIGTERM" >>"$STUB_LOG"
   exit "${STUB_EXIT:-7}"
 }
