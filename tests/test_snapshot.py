@@ -114,7 +114,7 @@ class Snapshot(unittest.TestCase):
 
     def check_rotations(self, all_):
         q = all_["orientation/value"][-1]
-        np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=0, atol=1e-15)
         np.testing.assert_allclose(all_["x_axis/value"][-1], rotate_x(q), atol=1e-6)
         self.assertFalse(np.allclose(q[:, 0], 1.0), "the catoms have turned")
         self.assertFalse(np.array_equal(all_["velocity/value"][-1], np.zeros((self.N, 3))))
