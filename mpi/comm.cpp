@@ -258,9 +258,15 @@ void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t 
 #ifdef PARODE_HAVE_HDF5
 static_assert(std::is_same_v<hid_t, std::int64_t>, "Domain::h5_parallel passes hid_t as int64_t (HDF5 1.10+)");
 
+// Independent transfers: each process's selection is already one contiguous
+// run of ids per dataset (block_rows did the aggregation), so collective
+// buffering would only shuffle the data a second time and make every write
+// wait for every process (measured at 10^6 bodies on 2 ranks: 0.6 to 1.3 s
+// a frame collective, 0.1 s independent). Creating and growing datasets
+// stays collective, as parallel HDF5 requires.
 void Comm::h5_parallel(std::int64_t file_access, std::int64_t transfer) const {
     if (H5Pset_fapl_mpio(file_access, MPI_COMM_WORLD, MPI_INFO_NULL) < 0 ||
-        H5Pset_dxpl_mpio(transfer, H5FD_MPIO_COLLECTIVE) < 0) {
+        H5Pset_dxpl_mpio(transfer, H5FD_MPIO_INDEPENDENT) < 0) {
         throw std::runtime_error("HDF5 cannot use MPI-IO (H5Pset_fapl_mpio)");
     }
 }

@@ -74,8 +74,8 @@ public:
                     const Bytes& tail) const;
 
     // HDF5 property lists (hid_t values) for one file of every process: the
-    // MPI-IO driver on MPI_COMM_WORLD, collective transfers. Throws
-    // std::logic_error in a build without HDF5.
+    // MPI-IO driver on MPI_COMM_WORLD, independent transfers of each
+    // process's contiguous block. Throws std::logic_error in a build without HDF5.
     void h5_parallel(std::int64_t file_access, std::int64_t transfer) const;
 
     [[noreturn]] void abort(int code) const;

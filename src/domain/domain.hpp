@@ -89,8 +89,8 @@ public:
     virtual std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const;
     // Sets HDF5 property lists (hid_t values) so that every process opens and
     // writes one file together: `file_access` gets the MPI-IO driver and
-    // `transfer` collective writes when distributed; on one process both
-    // stay as they are (HDF5's POSIX driver, which needs no MPI).
+    // `transfer` MPI-IO transfers when distributed; on one process both stay
+    // as they are (HDF5's POSIX driver, which needs no MPI).
     virtual void h5_parallel(std::int64_t /*file_access*/, std::int64_t /*transfer*/) const {}
 
     // Built on the collectives above.

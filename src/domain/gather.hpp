@@ -65,33 +65,50 @@ inline IdBlock id_block(std::uint64_t total, int rank, int ranks) {
     return {at(rank), at(rank + 1) - at(rank)};
 }
 
+// The process whose id block holds `gid`, given every block's end (ascending).
+inline std::size_t block_of(const std::vector<std::uint64_t>& ends, std::uint32_t gid) {
+    return static_cast<std::size_t>(std::upper_bound(ends.begin(), ends.end(), gid) - ends.begin());
+}
+
 // Rows of `width` doubles for the bodies of this process's id block (count x
 // width, in gid order); row(local, out) fills an owned body's row. Every row
-// of the block is filled, since every body has one owner.
+// of the block is filled, since every body has one owner. One process fills
+// its rows in place; several pack (gid, row) records per destination, sized
+// exactly, and exchange them in one all-to-all.
 template <class Row>
 std::vector<double> block_rows(const Domain& domain, const World& world, int width, Row row) {
     const std::size_t w = static_cast<std::size_t>(width);
-    const std::size_t rec = sizeof(std::uint32_t) + w * sizeof(double);
-    const std::uint64_t total = world.global_body_count();
+    const IdBlock mine = id_block(world.global_body_count(), domain.rank(), domain.ranks());
+    std::vector<double> rows(mine.count * w, std::nan(""));
+    if (!domain.distributed()) {
+        for (std::size_t i = 0; i < world.body_count(); ++i) row(i, rows.data() + world.gid(i) * w);
+        return rows;
+    }
     std::vector<std::uint64_t> ends(static_cast<std::size_t>(domain.ranks()));
     for (int r = 0; r < domain.ranks(); ++r) {
-        const IdBlock b = id_block(total, r, domain.ranks());
-        ends[static_cast<std::size_t>(r)] = b.first + b.count;  // a gid belongs to the first block ending after it
+        const IdBlock b = id_block(world.global_body_count(), r, domain.ranks());
+        ends[static_cast<std::size_t>(r)] = b.first + b.count;
+    }
+    const std::size_t rec = sizeof(std::uint32_t) + w * sizeof(double);
+    std::vector<std::size_t> fill(ends.size(), 0);
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) fill[block_of(ends, world.gid(i))] += rec;
     }
     std::vector<std::vector<char>> out(ends.size());
+    for (std::size_t r = 0; r < ends.size(); ++r) {
+        out[r].resize(fill[r]);
+        fill[r] = 0;  // from here: where the next record goes
+    }
     std::vector<double> buf(w);
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
         const std::uint32_t gid = world.gid(i);
-        std::vector<char>& to = out[static_cast<std::size_t>(std::upper_bound(ends.begin(), ends.end(), gid) - ends.begin())];
+        const std::size_t to = block_of(ends, gid);
         row(i, buf.data());
-        const std::size_t at = to.size();
-        to.resize(at + rec);
-        std::memcpy(to.data() + at, &gid, sizeof gid);
-        std::memcpy(to.data() + at + sizeof gid, buf.data(), w * sizeof(double));
+        std::memcpy(out[to].data() + fill[to], &gid, sizeof gid);
+        std::memcpy(out[to].data() + fill[to] + sizeof gid, buf.data(), w * sizeof(double));
+        fill[to] += rec;
     }
-    const IdBlock mine = id_block(total, domain.rank(), domain.ranks());
-    std::vector<double> rows(mine.count * w, std::nan(""));
     for (const auto& part : domain.all_to_all(out)) {
         for (std::size_t at = 0; at + rec <= part.size(); at += rec) {
             std::uint32_t gid;

@@ -2,7 +2,7 @@
 // themselves, every failure turned into an OutputError naming the file and
 // HDF5's own reason, and the few shapes H5MD needs (groups, string and number
 // attributes, chunked datasets that grow by frames, block writes). A file is
-// opened by every process of the domain together (MPI-IO, collective writes)
+// opened by every process of the domain together (MPI-IO; each process writes its own block)
 // or by the one process alone (HDF5's POSIX driver), as Domain::h5_parallel
 // decides; every call here is then collective.
 // Trade-off: the C API (the C++ binding is not supported with parallel HDF5)

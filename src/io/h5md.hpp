@@ -19,7 +19,7 @@
 //                         boxes_points [8B][3], boxes_cells [B][8]
 // Every other number is a little-endian double or 64-bit integer. The processes
 // write together: each its contiguous block of ids (domain/gather.hpp
-// block_rows), through MPI-IO with collective transfers when distributed, so
+// block_rows), through MPI-IO with independent transfers when distributed, so
 // the file holds the one-process data whatever the number of processes.
 // Trade-off: one chunk per frame and block of 2^20 bodies, so a frame is
 // written and read in large pieces; uncompressed, so that any reader (XDMF
