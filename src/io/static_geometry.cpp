@@ -21,8 +21,8 @@ void push(std::vector<double>& out, const Vec3& p) { out.insert(out.end(), p.beg
 
 // Two unit vectors spanning the plane of normal n, (u, v, n) right-handed.
 std::pair<Vec3, Vec3> plane_axes(const Vec3& n) {
-    const Vec3 helper = std::abs(n[0]) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    const Vec3 u = unit(cross(helper, n));
+    const Vec3 other = std::abs(n[0]) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    const Vec3 u = unit(cross(other, n));
     return {u, cross(n, u)};
 }
 
