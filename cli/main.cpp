@@ -28,6 +28,8 @@
 #include "processes.hpp"
 #include "io/error_metrics.hpp"
 #include "io/report.hpp"
+#include "io/snapshot.hpp"
+#include "io/xdmf.hpp"
 #include "progress.hpp"
 #include "register.hpp"
 #include "run/pipeline.hpp"
@@ -68,10 +70,19 @@ long step_count(const RunArgs& a, const Scene& scene) {
     return static_cast<long>(steps);
 }
 
+// Every process decides alike, so all of them stop together.
+void check_snapshot_format(const RunArgs& a) {
+    if (is_h5md_path(a.snapshot) && hdf5_version().empty()) {
+        throw std::invalid_argument("--snapshot " + a.snapshot + ": this parode was built without HDF5 and cannot "
+                                    "write H5MD; name a .csv file, or install HDF5 (jobs/setup.sh) and rebuild");
+    }
+}
+
 void check_outputs(const RunArgs& a) {
     check_output_path("--report", a.report);
     check_output_path("--trajectory", a.trajectory);
     check_output_path("--snapshot", a.snapshot);
+    if (is_h5md_path(a.snapshot)) check_output_path("--snapshot", xdmf_path(a.snapshot));  // its XDMF beside it
     check_output_path("--dump-on-failure", a.dump);
     check_output_path("--checkpoint", a.checkpoint);
 }
@@ -123,6 +134,7 @@ bool run_steps(const RunArgs& a, long steps, Pipeline& pipeline, const Interrupt
 
 int run_command(const RunArgs& a) {
     const Processes& procs = *Processes::current();
+    check_snapshot_format(a);
     if (procs.root()) check_outputs(a);  // the root writes every file
     RunOptions opt;
     const Scene scene = load_run_scene(a);
@@ -194,8 +206,10 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
     run->add_option("--report", a.report, "Write the JSON run report to this file");
     run->add_option("--set", a.sets, "Override a scene value, key=value (e.g. catoms.count=8000); repeatable")
         ->allow_extra_args(false);
-    CLI::Option* snapshot = run->add_option("--snapshot", a.snapshot, "Write body poses as CSV to this file");
-    run->add_option("--snapshot-every", a.snapshot_every, "Steps between snapshots (default 1)")
+    CLI::Option* snapshot = run->add_option("--snapshot", a.snapshot,
+                                            "Write every body's state at step 0 and every K steps: FILE.h5 is H5MD with "
+                                            "FILE.xdmf for ParaView, any other name CSV (position, quaternion)");
+    run->add_option("--snapshot-every", a.snapshot_every, "Steps between snapshots K (default 1)")
         ->check(int_in(1, kMaxSteps))->needs(snapshot);
     run->add_option("--trajectory", a.trajectory, "Write body positions at observed steps (a reference for --reference)");
     run->add_option("--reference", a.reference,

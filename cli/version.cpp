@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cli_common.hpp"
+#include "io/snapshot.hpp"
 
 #ifndef PARODE_VERSION
 #define PARODE_VERSION "unknown"
@@ -36,6 +37,8 @@ std::string version_text() {
     s += omp.empty() ? "OpenMP: no (every stage runs on one thread)\n"
                      : "OpenMP: yes (" + omp + "), up to " + std::to_string(kMaxThreads) + " threads\n";
     s += mpi.empty() ? "MPI: no" : "MPI: library found (" + mpi + "), no stage uses it yet";
+    const std::string h5 = hdf5_version();
+    s += h5.empty() ? "\nHDF5: no (snapshots as CSV only)" : "\nHDF5: " + h5 + " (H5MD snapshots)";
     return s;
 }
 

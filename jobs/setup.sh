@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs what parode needs on a fresh Debian machine (apt packages, Python
-# packages for analysis/), then configures and builds with a CMake preset.
+# packages for analysis/ and the snapshot tests), then configures and builds
+# with a CMake preset. HDF5 comes in both Debian flavours (serial for the
+# serial/omp presets, Open MPI for the MPI ones); ParaView (pvbatch, run under
+# Xvfb) draws analysis/snapshot_view.py's picture.
 # Idempotent: installs only what is missing, rebuilds only what changed.
 # Usage: jobs/setup.sh [PRESET]   (default: ci = OpenMP + MPI, warnings as errors)
 set -euo pipefail
@@ -10,7 +13,7 @@ export DEBIAN_FRONTEND=noninteractive
 
 apt_packages=(build-essential cmake ninja-build pkg-config libode-dev libmetis-dev
   libopenmpi-dev openmpi-bin libgtest-dev nlohmann-json3-dev libtoml11-dev libcli11-dev shellcheck
-  python3 python3-pip)
+  libhdf5-dev libhdf5-openmpi-dev paraview python3-paraview xvfb xauth python3 python3-pip)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -22,10 +25,10 @@ if ((${#missing[@]})); then
   $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if ! python3 -c "import numpy, matplotlib, pandas" 2>/dev/null; then
-  echo "setup: installing numpy, matplotlib and pandas"
-  python3 -m pip install --quiet numpy matplotlib pandas 2>/dev/null \
-    || python3 -m pip install --quiet --break-system-packages numpy matplotlib pandas
+if ! python3 -c "import numpy, matplotlib, pandas, h5py" 2>/dev/null; then
+  echo "setup: installing numpy, matplotlib, pandas and h5py"
+  python3 -m pip install --quiet numpy matplotlib pandas h5py 2>/dev/null \
+    || python3 -m pip install --quiet --break-system-packages numpy matplotlib pandas h5py
 fi
 
 cd "$root"

@@ -2,13 +2,18 @@
 #include "comm.hpp"
 
 #include <mpi.h>
+#ifdef PARODE_HAVE_HDF5
+#include <hdf5.h>
+#endif
 
 #include "io/output_error.hpp"
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cstdlib>
 #include <stdexcept>
+#include <type_traits>
 
 namespace parode::mpi {
 namespace {
@@ -124,6 +129,30 @@ void Comm::broadcast(Bytes& bytes, int root) const {
     check(MPI_Bcast(bytes.data(), static_cast<int>(n), MPI_BYTE, root, MPI_COMM_WORLD), "MPI_Bcast");
 }
 
+std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
+    Clock c(stats_);
+    std::vector<int> send(static_cast<std::size_t>(size_)), recv(send.size());
+    Bytes flat;
+    for (std::size_t r = 0; r < send.size(); ++r) {
+        if (out[r].size() > static_cast<std::size_t>(INT_MAX) - flat.size()) {
+            throw std::runtime_error("all_to_all: more than 2 GiB from one process");
+        }
+        send[r] = static_cast<int>(out[r].size());
+        flat.insert(flat.end(), out[r].begin(), out[r].end());
+    }
+    check(MPI_Alltoall(send.data(), 1, MPI_INT, recv.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Alltoall");
+    long long in = 0;
+    for (int n : recv) in += n;
+    if (in > INT_MAX) throw std::runtime_error("all_to_all: more than 2 GiB to one process");
+    const std::vector<int> sdisp = displacements(send), rdisp = displacements(recv);
+    Bytes all(static_cast<std::size_t>(rdisp.back()) + static_cast<std::size_t>(recv.back()));
+    check(MPI_Alltoallv(flat.data(), send.data(), sdisp.data(), MPI_BYTE, all.data(), recv.data(), rdisp.data(), MPI_BYTE,
+                        MPI_COMM_WORLD),
+          "MPI_Alltoallv");
+    stats_.bytes += flat.size() - out[static_cast<std::size_t>(rank_)].size();
+    return split(all, recv);
+}
+
 // NBX (Hoefler, Siebert, Lumsdaine 2010): synchronous sends complete only
 // when matched, so once all of this process's sends are done it enters a
 // non-blocking barrier; when the barrier completes, every message of the
@@ -225,6 +254,25 @@ void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t 
     stats_.bytes += head.size() + records.size() + tail.size();
     io_check(rc != MPI_SUCCESS ? rc : rc2 != MPI_SUCCESS ? rc2 : rc3 != MPI_SUCCESS ? rc3 : rc4, path, "writing");
 }
+
+#ifdef PARODE_HAVE_HDF5
+static_assert(std::is_same_v<hid_t, std::int64_t>, "Domain::h5_parallel passes hid_t as int64_t (HDF5 1.10+)");
+
+// Independent transfers: each process's selection is already one contiguous
+// run of ids per dataset (block_rows did the aggregation), so collective
+// buffering would only shuffle the data a second time and make every write
+// wait for every process (measured at 10^6 bodies on 2 ranks: 0.6 to 1.3 s
+// a frame collective, 0.1 s independent). Creating and growing datasets
+// stays collective, as parallel HDF5 requires.
+void Comm::h5_parallel(std::int64_t file_access, std::int64_t transfer) const {
+    if (H5Pset_fapl_mpio(file_access, MPI_COMM_WORLD, MPI_INFO_NULL) < 0 ||
+        H5Pset_dxpl_mpio(transfer, H5FD_MPIO_INDEPENDENT) < 0) {
+        throw std::runtime_error("HDF5 cannot use MPI-IO (H5Pset_fapl_mpio)");
+    }
+}
+#else
+void Comm::h5_parallel(std::int64_t, std::int64_t) const { throw std::logic_error("parode was built without HDF5"); }
+#endif
 
 void Comm::abort(int code) const { MPI_Abort(MPI_COMM_WORLD, code); std::abort(); }
 

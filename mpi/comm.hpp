@@ -5,6 +5,8 @@
 // with partners that the receiver does not know in advance (the NBX
 // algorithm: synchronous sends, then a non-blocking barrier once they are
 // all matched), and a neighbour exchange with known partners.
+// It also hands MPI_COMM_WORLD to parallel HDF5 (h5_parallel), whose header
+// includes <mpi.h> in turn.
 // Trade-off: byte vectors everywhere (one copy more than derived datatypes)
 // keep the rest of the layer free of MPI types and easy to test.
 #pragma once
@@ -50,6 +52,8 @@ public:
     std::vector<Bytes> all_gather(const Bytes& mine) const;
     std::vector<Bytes> gather(const Bytes& mine, int root) const;
     void broadcast(Bytes& bytes, int root) const;
+    // out[r] goes to process r; returns what every process sent here, in rank order.
+    std::vector<Bytes> all_to_all(const std::vector<Bytes>& out) const;
 
     // Sends out[dest] to each dest; returns what every other process sent
     // here, sorted by source rank. Partners need not be known in advance.
@@ -68,6 +72,11 @@ public:
     void write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
                     const std::vector<std::uint32_t>& gids, const Bytes& records, std::uint64_t tail_at,
                     const Bytes& tail) const;
+
+    // HDF5 property lists (hid_t values) for one file of every process: the
+    // MPI-IO driver on MPI_COMM_WORLD, independent transfers of each
+    // process's contiguous block. Throws std::logic_error in a build without HDF5.
+    void h5_parallel(std::int64_t file_access, std::int64_t transfer) const;
 
     [[noreturn]] void abort(int code) const;
     // Point-to-point latency between ranks 0 and 1, measured by a ping-pong

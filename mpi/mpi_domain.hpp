@@ -51,6 +51,12 @@ public:
     void max(double* v, int n) const override { comm_.max(v, n); }
     std::vector<std::vector<char>> all_gather(const std::vector<char>& mine) const override { return comm_.all_gather(mine); }
     std::vector<std::vector<char>> gather(const std::vector<char>& mine) const override { return comm_.gather(mine, 0); }
+    std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const override {
+        return comm_.all_to_all(out);
+    }
+    void h5_parallel(std::int64_t file_access, std::int64_t transfer) const override {
+        comm_.h5_parallel(file_access, transfer);
+    }
     void write_file(const std::string& path, const FilePieces& f) const override {
         comm_.write_file(path, f.head, f.records_at, f.record, f.gids, f.records, f.tail_at, f.tail);
     }

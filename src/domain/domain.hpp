@@ -10,8 +10,9 @@
 // reduction whose result the state depends on is exact (integer sums,
 // ExactSum digits, maxima), never a floating-point sum in MPI's order.
 // Trade-off: byte-vector gathers to one process are simple and general, and
-// fine for what goes through them (trajectory frames, snapshots, failure
-// messages); bulk traffic of the step goes through the virtual stages.
+// fine for what goes through them (trajectory frames, CSV snapshots, failure
+// messages); bulk traffic of the step goes through the virtual stages, and
+// H5MD snapshots through all_to_all (each process writes a block of ids).
 #pragma once
 #include <nlohmann/json.hpp>
 
@@ -84,6 +85,13 @@ public:
     // root only (others get an empty list).
     virtual std::vector<std::vector<char>> all_gather(const std::vector<char>& mine) const;
     virtual std::vector<std::vector<char>> gather(const std::vector<char>& mine) const;
+    // out[r] goes to process r; returns what every process sent here, in rank order.
+    virtual std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const;
+    // Sets HDF5 property lists (hid_t values) so that every process opens and
+    // writes one file together: `file_access` gets the MPI-IO driver and
+    // `transfer` MPI-IO transfers when distributed; on one process both stay
+    // as they are (HDF5's POSIX driver, which needs no MPI).
+    virtual void h5_parallel(std::int64_t /*file_access*/, std::int64_t /*transfer*/) const {}
 
     // Built on the collectives above.
     void sum(ExactSum* s, int n) const;

@@ -1,10 +1,13 @@
 // Per-body data of a distributed world brought together in global-id order:
-// each process packs (gid, row) for its owned bodies, the root places the
-// rows by gid. Used for trajectory frames, snapshots, the guard's dump and
-// the checks, so that their files and verdicts do not depend on the number
-// of processes.
-// Trade-off: the root holds every row (width x 8 bytes a body) while it
-// writes; fine for output, not for anything on the hot path.
+// each process packs (gid, row) for its owned bodies, and either the root
+// places every row by gid (gather_rows: trajectory frames, CSV snapshots, the
+// guard's dump, the checks) or each process gets the rows of one contiguous
+// block of ids (block_rows: H5MD snapshots, which every process writes
+// together), so that files and verdicts do not depend on the number of
+// processes.
+// Trade-off: gather_rows has the root hold every row (width x 8 bytes a
+// body) while it writes; block_rows spreads them, at the price of an
+// all-to-all exchange. Both are for output, not for the hot path.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -49,6 +52,71 @@ std::vector<double> gather_rows(const Domain& domain, const World& world, int wi
         }
     }
     return out;
+}
+
+// The ids [first, first + count) whose rows process `rank` of `ranks` holds
+// in block_rows: equal blocks in gid order, the first ones one smaller.
+struct IdBlock {
+    std::uint64_t first = 0;
+    std::uint64_t count = 0;
+};
+inline IdBlock id_block(std::uint64_t total, int rank, int ranks) {
+    const auto at = [&](int r) { return total * static_cast<std::uint64_t>(r) / static_cast<std::uint64_t>(ranks); };
+    return {at(rank), at(rank + 1) - at(rank)};
+}
+
+// The process whose id block holds `gid`, given every block's end (ascending).
+inline std::size_t block_of(const std::vector<std::uint64_t>& ends, std::uint32_t gid) {
+    return static_cast<std::size_t>(std::upper_bound(ends.begin(), ends.end(), gid) - ends.begin());
+}
+
+// Rows of `width` doubles for the bodies of this process's id block (count x
+// width, in gid order); row(local, out) fills an owned body's row. Every row
+// of the block is filled, since every body has one owner. One process fills
+// its rows in place; several pack (gid, row) records per destination, sized
+// exactly, and exchange them in one all-to-all.
+template <class Row>
+std::vector<double> block_rows(const Domain& domain, const World& world, int width, Row row) {
+    const std::size_t w = static_cast<std::size_t>(width);
+    const IdBlock mine = id_block(world.global_body_count(), domain.rank(), domain.ranks());
+    std::vector<double> rows(mine.count * w, std::nan(""));
+    if (!domain.distributed()) {
+        for (std::size_t i = 0; i < world.body_count(); ++i) row(i, rows.data() + world.gid(i) * w);
+        return rows;
+    }
+    std::vector<std::uint64_t> ends(static_cast<std::size_t>(domain.ranks()));
+    for (int r = 0; r < domain.ranks(); ++r) {
+        const IdBlock b = id_block(world.global_body_count(), r, domain.ranks());
+        ends[static_cast<std::size_t>(r)] = b.first + b.count;
+    }
+    const std::size_t rec = sizeof(std::uint32_t) + w * sizeof(double);
+    std::vector<std::size_t> fill(ends.size(), 0);
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (!world.ghost(i)) fill[block_of(ends, world.gid(i))] += rec;
+    }
+    std::vector<std::vector<char>> out(ends.size());
+    for (std::size_t r = 0; r < ends.size(); ++r) {
+        out[r].resize(fill[r]);
+        fill[r] = 0;  // from here: where the next record goes
+    }
+    std::vector<double> buf(w);
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        if (world.ghost(i)) continue;
+        const std::uint32_t gid = world.gid(i);
+        const std::size_t to = block_of(ends, gid);
+        row(i, buf.data());
+        std::memcpy(out[to].data() + fill[to], &gid, sizeof gid);
+        std::memcpy(out[to].data() + fill[to] + sizeof gid, buf.data(), w * sizeof(double));
+        fill[to] += rec;
+    }
+    for (const auto& part : domain.all_to_all(out)) {
+        for (std::size_t at = 0; at + rec <= part.size(); at += rec) {
+            std::uint32_t gid;
+            std::memcpy(&gid, part.data() + at, sizeof gid);
+            std::memcpy(rows.data() + (gid - mine.first) * w, part.data() + at + sizeof gid, w * sizeof(double));
+        }
+    }
+    return rows;
 }
 
 // The root's text on every process.

@@ -6,7 +6,6 @@
 #include "domain/gather.hpp"
 #include "io/checkpoint.hpp"
 #include "util/hash.hpp"
-#include "io/output_error.hpp"
 #include "forces/controller.hpp"
 #include "run/stage_plan.hpp"
 
@@ -32,13 +31,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     if (!options.restart_path.empty()) restore(options.restart_path, gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
-    if (stage(Stage::Output).enabled && domain_->root()) {
-        snapshot_.open(options.snapshot_path);
-        if (!snapshot_) throw OutputError(options.snapshot_path + ": cannot open snapshot file for writing");
-        snapshot_ << "step,body,x,y,z,qw,qx,qy,qz\n";
-    }
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
-    snapshot_path_ = options.snapshot_path;
 #ifdef NDEBUG
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
 #else
@@ -55,6 +48,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
         trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
         trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, *domain_));
     }
+    timed(Stage::Output, [&] { snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, *domain_, steps_, steps_ * scene.dt); });
 }
 
 // Bodies from the checkpoint (this process's initial ids), ODE's dRand, the
@@ -160,6 +154,7 @@ void Pipeline::step() {
 
 void Pipeline::finish() {
     if (last_observed_ != steps_) timed(Stage::Observe, [this] { run_observe(); });
+    timed(Stage::Output, [this] { snapshot_->close(); });
 }
 
 void Pipeline::run_migrate() { domain_->migrate(*world_, solver_->warm_impulses(), steps_); }
@@ -203,19 +198,6 @@ void Pipeline::run_observe() {
     if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt, *domain_));
 }
 
-void Pipeline::run_output() {
-    const std::vector<double> rows = gather_rows(*domain_, *world_, 7, [this](std::size_t i, double* out) {
-        const dReal* p = dBodyGetPosition(world_->body(i));
-        const dReal* q = dBodyGetQuaternion(world_->body(i));
-        for (int k = 0; k < 3; ++k) out[k] = p[k];
-        for (int k = 0; k < 4; ++k) out[3 + k] = q[k];
-    });
-    for (std::size_t i = 0; i < rows.size() / 7; ++i) {
-        const double* r = rows.data() + 7 * i;
-        snapshot_ << steps_ << ',' << i << ',' << r[0] << ',' << r[1] << ',' << r[2] << ',' << r[3] << ',' << r[4]
-                  << ',' << r[5] << ',' << r[6] << '\n';
-    }
-    if (domain_->root() && !snapshot_.flush()) throw OutputError(snapshot_path_ + ": the snapshot could not be written (disk full?)");
-}
+void Pipeline::run_output() { snapshot_->write(*world_, steps_, steps_ * scene_.dt); }
 
 }  // namespace parode

@@ -10,7 +10,6 @@
 // Trade-off: one virtual call per stage per step; negligible next to the work.
 #pragma once
 #include <array>
-#include <fstream>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -22,6 +21,7 @@
 #include "run/guard.hpp"
 #include "forces/magnets.hpp"
 #include "solve/solver.hpp"
+#include "io/snapshot.hpp"
 #include "io/trajectory.hpp"
 #include "world/world.hpp"
 
@@ -41,7 +41,7 @@ struct RunOptions {
     std::string collide = "ode-hash";
     std::string solver = "ode";  // "ode", "pgs", "parallel"
     int threads = 1;
-    std::string snapshot_path;  // CSV of body poses; empty: no output stage
+    std::string snapshot_path;  // snapshot file (io/snapshot.hpp: H5MD or CSV); empty: no output stage
     int snapshot_every = 0;
     bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
     std::string dump_path;           // guard: where to write the last good state on failure
@@ -68,7 +68,8 @@ class Pipeline {
 public:
     Pipeline(const Scene& scene, const RunOptions& options);
     void step();
-    // Observe now unless the last step was observed (call once at the end).
+    // Observe now unless the last step was observed, and complete the
+    // snapshot files (call once at the end).
     void finish();
 
     int steps_done() const { return steps_; }
@@ -126,8 +127,7 @@ private:
     std::unique_ptr<Guard> guard_;
     std::unique_ptr<Checker> checker_;
     std::unique_ptr<Trajectory> trajectory_;
-    std::ofstream snapshot_;
-    std::string snapshot_path_;
+    std::unique_ptr<SnapshotWriter> snapshot_;
     int snapshot_every_ = 0;
     int invariants_every_ = 0;
     int steps_ = 0;

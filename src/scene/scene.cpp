@@ -32,18 +32,19 @@ bool Scene::body_magnets(std::size_t gid) const {
            !std::binary_search(magnets_off.begin(), magnets_off.end(), static_cast<std::uint32_t>(gid));
 }
 
+double bounding_radius(const Shape& sh) {
+    switch (sh.kind) {
+        case ShapeKind::Sphere: return sh.radius;
+        case ShapeKind::Box: return 0.5 * std::sqrt(sh.size[0] * sh.size[0] + sh.size[1] * sh.size[1] + sh.size[2] * sh.size[2]);
+        case ShapeKind::Capsule:
+        case ShapeKind::Cylinder: break;
+    }
+    return sh.radius + 0.5 * sh.length;
+}
+
 double Scene::max_bounding_radius() const {
-    auto radius = [](const Shape& sh) {
-        switch (sh.kind) {
-            case ShapeKind::Sphere: return sh.radius;
-            case ShapeKind::Box: return 0.5 * std::sqrt(sh.size[0] * sh.size[0] + sh.size[1] * sh.size[1] + sh.size[2] * sh.size[2]);
-            case ShapeKind::Capsule:
-            case ShapeKind::Cylinder: break;
-        }
-        return sh.radius + 0.5 * sh.length;
-    };
-    double r = catoms.count ? radius(catoms.proto.shape) : 0.0;
-    for (const BodySpec& b : bodies) r = std::max(r, radius(b.shape));
+    double r = catoms.count ? bounding_radius(catoms.proto.shape) : 0.0;
+    for (const BodySpec& b : bodies) r = std::max(r, bounding_radius(b.shape));
     return r;
 }
 

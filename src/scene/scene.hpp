@@ -24,6 +24,10 @@ struct Shape {
     Vec3 size{1.0, 1.0, 1.0};   // box
 };
 
+// Radius of the smallest sphere about the shape's centre that holds it
+// (capsule and cylinder: r + length / 2, an upper bound).
+double bounding_radius(const Shape& shape);
+
 struct Material {
     std::string name;
     double mu = 0.5;

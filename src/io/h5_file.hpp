@@ -1,0 +1,84 @@
+// A thin layer over the HDF5 C API for the snapshot writer: handles that close
+// themselves, every failure turned into an OutputError naming the file and
+// HDF5's own reason, and the few shapes H5MD needs (groups, string and number
+// attributes, chunked datasets that grow by frames, block writes). A file is
+// opened by every process of the domain together (MPI-IO; each process writes its own block)
+// or by the one process alone (HDF5's POSIX driver), as Domain::h5_parallel
+// decides; every call here is then collective.
+// Trade-off: the C API (the C++ binding is not supported with parallel HDF5)
+// behind a dozen functions, rather than a general wrapper.
+#pragma once
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "domain/domain.hpp"
+
+namespace parode::h5 {
+
+// An hid_t and the function that closes it.
+class Id {
+public:
+    Id() = default;
+    Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+    Id(Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
+    Id& operator=(Id&& o) noexcept;
+    Id(const Id&) = delete;
+    Id& operator=(const Id&) = delete;
+    ~Id() { reset(); }
+    void reset();
+    hid_t release() {  // the caller closes it
+        const hid_t id = id_;
+        id_ = H5I_INVALID_HID;
+        return id;
+    }
+    hid_t get() const { return id_; }
+    explicit operator bool() const { return id_ >= 0; }
+
+private:
+    hid_t id_ = H5I_INVALID_HID;
+    herr_t (*close_)(hid_t) = nullptr;
+};
+
+// Element types: HDF5's native ones in memory, little-endian in the file.
+enum class Type { F64, F32, I64 };
+
+class File {
+public:
+    // Creates (truncates) `path`; collective over `domain`.
+    File(const std::string& path, const Domain& domain);
+    // Collective; the object handles must be closed first. Throws on failure.
+    void close();
+
+    const std::string& path() const { return path_; }
+    hid_t id() const { return file_.get(); }
+    Id group(hid_t parent, const std::string& name) const;
+    void link(hid_t target, hid_t parent, const std::string& name) const;  // a hard link
+
+    void attribute(hid_t obj, const std::string& name, const std::string& value) const;
+    void attribute(hid_t obj, const std::string& name, const std::vector<std::string>& values) const;
+    void attribute(hid_t obj, const std::string& name, const std::vector<std::int64_t>& values) const;  // stored as int32
+    void attribute(hid_t obj, const std::string& name, double value) const;
+
+    // A dataset of `dims`; dims[0] == 0 makes it grow along its first axis
+    // (frames), in chunks of one frame by at most 2^20 rows.
+    Id dataset(hid_t parent, const std::string& name, Type type, const std::vector<hsize_t>& dims) const;
+    // Grows `dset`'s first axis to `n`.
+    void extend(hid_t dset, hsize_t n) const;
+    // Writes the box `start`, `count` of `dset` from `data` (contiguous, in
+    // row-major order); a process with nothing to write passes a zero count.
+    void write(hid_t dset, Type type, const std::vector<hsize_t>& start, const std::vector<hsize_t>& count,
+               const void* data) const;
+
+    // Throws OutputError("<path>: <what>: <HDF5's reason>") when rc < 0.
+    std::int64_t check(std::int64_t rc, const std::string& what) const;
+
+private:
+    std::string path_;
+    Id transfer_;
+    Id file_;
+};
+
+}  // namespace parode::h5

@@ -1,0 +1,222 @@
+"""H5MD snapshots read back with h5py, run by ctest (tests/CMakeLists.txt).
+
+Each test runs `parode run` as a user does and checks the files it wrote:
+- Layout: the H5MD groups, attributes, shapes and types; ids, species,
+  radius and mass; steps and times; unit quaternions and their x axes.
+- Trajectory: positions equal, bit for bit, the `--trajectory` file's at
+  every step both recorded.
+- Xdmf: the XDMF beside the file parses as XML, has one grid per frame, and
+  every data item points at an existing dataset of its stated shape and
+  number type (hyperslabs inside it).
+- TwoRanks: the file written by 2 MPI processes holds exactly the datasets
+  and attributes of the one-process file.
+Usage: test_snapshot.py --parode BIN --source DIR [--mpiexec BIN] [unittest args]
+Trade-off: whole runs of a few hundred bodies (a second each) rather than
+calls into the writer: they test the files a user gets, the XDMF included.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+try:
+    import h5py
+except ImportError:  # a failure, not a skip: the snapshot tests must run
+    sys.exit("test_snapshot.py: h5py is missing (run jobs/setup.sh, or python3 -m pip install h5py)")
+
+_ap = argparse.ArgumentParser()
+_ap.add_argument("--parode", required=True)
+_ap.add_argument("--source", required=True)
+_ap.add_argument("--mpiexec", default="")
+ARGS, REST = _ap.parse_known_args()
+PARODE, SOURCE, MPIEXEC = ARGS.parode, ARGS.source, ARGS.mpiexec
+TENNIS = os.path.join(SOURCE, "jobs/scenes/tennis.toml")
+BUGGY = os.path.join(SOURCE, "jobs/scenes/buggy.toml")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMP_WAIT_POLICY="passive",
+           OMPI_MCA_rmaps_base_oversubscribe="1")
+
+
+def run(args, ranks=0, timeout=300):
+    launcher = [MPIEXEC, "-n", str(ranks), "--oversubscribe"] if ranks else []
+    r = subprocess.run(launcher + [PARODE, "run"] + args + ["-q"], env=ENV, capture_output=True, text=True,
+                       timeout=timeout)
+    if r.returncode != 0:
+        raise AssertionError(f"parode {' '.join(args)} exited {r.returncode}: {r.stderr}")
+
+
+def read_trajectory(path):
+    """{step: positions [N][3]} of a parode trajectory file (src/io/trajectory.hpp)."""
+    with open(path, "rb") as f:
+        line = f.readline().decode()
+        assert line.startswith("parode-trajectory 1 "), line[:40]
+        meta = json.loads(line[len("parode-trajectory 1 "):])
+        n = len(meta["catom_mask"])
+        frames = {}
+        for _ in range(meta["frames"]):
+            head = np.frombuffer(f.read(16 * 8), dtype="<f8")
+            frames[int(head[0])] = np.frombuffer(f.read(3 * n * 8), dtype="<f8").reshape(n, 3)
+    return frames
+
+
+def rotate_x(q):
+    """The body x axis of unit quaternions q [N][4] (w, x, y, z)."""
+    w, x, y, z = q.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
+
+
+class Snapshot(unittest.TestCase):
+    N, STEPS, EVERY = 343, 40, 5
+
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.TemporaryDirectory(prefix="parode_snapshot_")
+        cls.h5 = os.path.join(cls.dir.name, "tennis.h5")
+        cls.traj = os.path.join(cls.dir.name, "tennis.traj")
+        run([TENNIS, "--steps", str(cls.STEPS), "--set", f"catoms.count={cls.N}", "--snapshot", cls.h5,
+             "--snapshot-every", str(cls.EVERY), "--trajectory", cls.traj])
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.dir.cleanup()
+
+    def test_layout(self):
+        with h5py.File(self.h5, "r") as f:
+            self.assertEqual(list(f["h5md"].attrs["version"]), [1, 1])
+            self.assertEqual(f["h5md/creator"].attrs["name"], b"parode")
+            self.assertIn("name", f["h5md/author"].attrs)
+            box = f["particles/all/box"]
+            self.assertEqual(box.attrs["dimension"], 3)
+            self.assertEqual(list(box.attrs["boundary"]), [b"none"] * 3)
+            self.assertTrue(np.all(box["edges"][:] > 0))
+            frames = self.STEPS // self.EVERY + 1
+            steps = np.arange(0, self.STEPS + 1, self.EVERY)
+            for name, dims, dtype in (("position", 3, "<f8"), ("velocity", 3, "<f8"), ("orientation", 4, "<f8"),
+                                      ("x_axis", 3, "<f4")):
+                element = f["particles/all"][name]
+                self.assertEqual(element["value"].shape, (frames, self.N, dims), name)
+                self.assertEqual(element["value"].dtype, np.dtype(dtype), name)
+                np.testing.assert_array_equal(element["step"][:], steps)
+                np.testing.assert_array_equal(element["time"][:], steps * 0.005)
+            self.check_fixed(f["particles/all"])
+            self.check_rotations(f["particles/all"])
+
+    def check_fixed(self, all_):
+        np.testing.assert_array_equal(all_["id"][:], np.arange(self.N))
+        np.testing.assert_array_equal(all_["radius"][:], np.full(self.N, 0.5))
+        np.testing.assert_array_equal(all_["mass"][:], np.full(self.N, 1.0))
+        np.testing.assert_array_equal(all_["species"][:], np.zeros(self.N))  # every body a catom
+
+    def check_rotations(self, all_):
+        q = all_["orientation/value"][-1]
+        np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(all_["x_axis/value"][-1], rotate_x(q), atol=1e-6)
+        self.assertFalse(np.allclose(q[:, 0], 1.0), "the catoms have turned")
+        self.assertFalse(np.array_equal(all_["velocity/value"][-1], np.zeros((self.N, 3))))
+
+    def test_positions_equal_trajectory(self):
+        traj = read_trajectory(self.traj)
+        with h5py.File(self.h5, "r") as f:
+            steps = list(f["particles/all/position/step"][:])
+            common = sorted(set(steps) & set(traj))
+            self.assertEqual(common, [0, 10, 20, 30, 40])
+            for s in common:
+                np.testing.assert_array_equal(f["particles/all/position/value"][steps.index(s)], traj[s], f"step {s}")
+            self.assertFalse(np.array_equal(traj[0], traj[40]), "the bodies have moved")
+
+
+class Xdmf(unittest.TestCase):
+    """The XDMF of a catom scene (planes) and of the buggy (bodies of three shapes, a ramp)."""
+
+    def check(self, scene, args, quads, hexes):
+        with tempfile.TemporaryDirectory(prefix="parode_xdmf_") as d:
+            h5 = os.path.join(d, "s.h5")
+            run([scene, "--snapshot", h5] + args)
+            root = ET.parse(os.path.join(d, "s.xdmf")).getroot()
+            with h5py.File(h5, "r") as f:
+                n = f["particles/all/id"].shape[0]
+                self.check_frames(root, f, n)
+                for item in root.iter("DataItem"):
+                    if item.get("Format") == "HDF":
+                        self.check_heavy(item, d, f)
+                    if item.get("ItemType") == "HyperSlab":
+                        self.check_slab(item, f)
+                self.check_statics(root, quads, hexes)
+
+    def check_frames(self, root, f, n):
+        grids = root.findall("./Domain/Grid[@CollectionType='Temporal']/Grid")
+        times = f["particles/all/position/time"][:]
+        self.assertEqual(len(grids), len(times))
+        for grid, t in zip(grids, times):
+            self.assertEqual(float(grid.find("Time").get("Value")), t)
+            self.assertEqual(int(grid.find("Topology").get("NumberOfElements")), n)
+            names = {a.get("Name") for a in grid.findall("Attribute")}
+            self.assertEqual(names, {"velocity", "orientation", "x_axis", "radius", "mass", "id", "species"})
+
+    def check_heavy(self, item, d, f):
+        name, _, path = item.text.strip().partition(":")
+        self.assertTrue(os.path.exists(os.path.join(d, name)), name)
+        self.assertIn(path, f, path)
+        dset = f[path]
+        self.assertEqual(tuple(int(x) for x in item.get("Dimensions").split()), dset.shape, path)
+        self.assertEqual(int(item.get("Precision")), dset.dtype.itemsize, path)
+        self.assertEqual(item.get("NumberType"), "Float" if dset.dtype.kind == "f" else "Int", path)
+
+    def check_slab(self, item, f):
+        select, data = item.findall("DataItem")
+        start, stride, count = np.array(select.text.split(), dtype=int).reshape(3, -1)
+        shape = f[data.text.strip().partition(":")[2]].shape
+        self.assertTrue(np.all(start + (count - 1) * stride < shape), select.text)
+        self.assertEqual(np.prod(count), np.prod([int(x) for x in item.get("Dimensions").split()]))
+
+    def check_statics(self, root, quads, hexes):
+        kinds = {g.get("Name"): int(g.find("Topology").get("NumberOfElements"))
+                 for g in root.findall("./Domain/Grid[@Name='statics']/Grid")}
+        self.assertEqual(kinds, {k: v for k, v in (("planes", quads), ("boxes", hexes)) if v})
+
+    def test_tennis(self):
+        self.check(TENNIS, ["--steps", "20", "--snapshot-every", "10", "--set", "catoms.count=125"], 1, 0)
+
+    def test_buggy(self):
+        self.check(BUGGY, ["--steps", "30", "--snapshot-every", "10"], 1, 1)
+
+
+class TwoRanks(unittest.TestCase):
+    """2 processes write the file of one (rebalancing often, so bodies change owners)."""
+
+    def test_same_file(self):
+        self.assertTrue(MPIEXEC, "needs mpiexec")
+        common = [TENNIS, "--steps", "60", "--collide", "grid", "--solver", "parallel", "--set", "catoms.count=2000",
+                  "--set", "parallel.rebalance_threshold=1.02", "--set", "parallel.rebalance_every=5",
+                  "--snapshot-every", "20"]
+        with tempfile.TemporaryDirectory(prefix="parode_ranks_") as d:
+            one, two = os.path.join(d, "one.h5"), os.path.join(d, "two.h5")
+            run(common + ["--snapshot", one, "--report", os.path.join(d, "one.json")])
+            run(common + ["--snapshot", two, "--report", os.path.join(d, "two.json")], ranks=2)
+            with open(os.path.join(d, "two.json")) as r:
+                self.assertGreater(json.load(r)["parallel"]["migrations"], 0)
+            with h5py.File(one, "r") as a, h5py.File(two, "r") as b:
+                self.assertEqual(contents(a), contents(b))
+                self.assertEqual(a["particles/all/position/value"].shape, (4, 2000, 3))
+
+
+def contents(f):
+    """Every dataset's bytes and every attribute, by path."""
+    out = {}
+
+    def visit(name, obj):
+        out[name + "/@"] = {k: np.asarray(v).tobytes() for k, v in obj.attrs.items()}
+        if isinstance(obj, h5py.Dataset):
+            out[name] = (obj.shape, obj.dtype.str, obj[()].tobytes())
+
+    f.visititems(visit)
+    return out
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0]] + REST, verbosity=2)
