@@ -53,7 +53,7 @@ public:
     std::vector<std::vector<char>> gather(const std::vector<char>& mine) const override { return comm_.gather(mine, 0); }
 
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
-    void exchange(int colour, std::array<double, 6>* fc) override;
+    void exchange(int colour, const CorrectionView& fc) override;
 
     // For tests: the cell map of the last partition and what moved.
     const CellMap& cell_map() const { return map_; }

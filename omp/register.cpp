@@ -10,6 +10,7 @@
 
 #include "collide/collide.hpp"
 #include "grid_collide.hpp"
+#include "loop_runner.hpp"
 #include "magnet_pass.hpp"
 #include "parallel_solver.hpp"
 #include "solve/solver.hpp"
@@ -17,6 +18,8 @@
 namespace parode::omp {
 
 void register_backends() {
+    static const OmpLoopRunner runner;
+    set_loop_runner(&runner);
     BackendRegistry::instance().add("grid", [] { return std::make_unique<GridBackend>(); });
     set_magnet_gather(&gather_magnets_parallel);
     SolverRegistry::instance().add("parallel", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {

@@ -15,6 +15,7 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
+#include "util/substages.hpp"
 
 namespace parode {
 
@@ -35,6 +36,8 @@ public:
     // flat space), so a backend may read them without walking ODE's list.
     // The pointer must stay valid while the backend collides that space.
     virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
+    // Seconds spent in the backend's substages so far, or null.
+    virtual const Substages* substages() const { return nullptr; }
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

@@ -50,6 +50,12 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     }
 }
 
+const Substages* Pipeline::substages(Stage s) const {
+    if (s == Stage::Collide) return backend_->substages();
+    if (s == Stage::Solve) return solver_->substages();
+    return nullptr;
+}
+
 nlohmann::json Pipeline::checks_result() const {
     return checker_ ? checker_->result(*world_, last_) : nlohmann::json();
 }

@@ -86,6 +86,8 @@ public:
     // The [checks] verdict for the current state (null when the scene has no [checks]).
     nlohmann::json checks_result() const;
     const SolverBackend& solver() const { return *solver_; }
+    // The substage timers of a stage's backend (collide, solve), or null.
+    const Substages* substages(Stage s) const;
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);

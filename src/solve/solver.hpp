@@ -15,6 +15,7 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
+#include "util/substages.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -36,6 +37,8 @@ public:
     virtual std::vector<WarmImpulse>* warm_impulses() { return nullptr; }
     // Where a distributed run exchanges corrections during the solve.
     virtual void set_exchange(CorrectionExchange* /*exchange*/) {}
+    // Seconds spent in the backend's substages so far, or null.
+    virtual const Substages* substages() const { return nullptr; }
 };
 
 // Factories take the scene and the run's thread count.

@@ -210,6 +210,24 @@ int World::material_of(std::uint32_t geom_id) const {
     return static_material_[geom_id - global_];
 }
 
+World::GeomShape World::geom_shape(std::uint32_t geom_id) const {
+    const Shape* s = nullptr;
+    if (geom_id < global_) {
+        s = geom_id < scene_.bodies.size() ? &scene_.bodies[geom_id].shape : &scene_.catoms.proto.shape;
+    } else if (geom_id - global_ < scene_.statics.size()) {
+        s = &scene_.statics[geom_id - global_].shape;
+    } else {
+        return GeomShape::Plane;
+    }
+    switch (s->kind) {
+        case ShapeKind::Sphere: return GeomShape::Sphere;
+        case ShapeKind::Box: return GeomShape::Box;
+        case ShapeKind::Capsule: return GeomShape::Capsule;
+        case ShapeKind::Cylinder: break;
+    }
+    return GeomShape::Cylinder;
+}
+
 void World::build_statics() {
     auto add = [this](dGeomID g, int material) {
         set_geom_id(g, static_cast<std::uint32_t>(global_ + static_material_.size()));

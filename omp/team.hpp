@@ -1,0 +1,39 @@
+// When the OpenMP stages use their threads. Two rules, neither of which can
+// change a result (every stage gives the same bits on any thread count):
+// - Size: a loop or stage below its measured crossover runs on one thread
+//   (a parallel region costs a few microseconds, more than it saves on small
+//   scenes; the crossovers are in README.md, "Threads and small scenes").
+// - Sharing: when another process holds one of our cores, every barrier waits
+//   for a thread the kernel has descheduled. The threaded sweep of the contact
+//   solver measures how long its threads wait at the colour barriers; when
+//   they wait more than they work, the rest of the step runs on one thread and
+//   the stages after it stay on one thread, trying threads again on a later
+//   step (after 1, 2, 4, ... 16 steps while the sharing lasts).
+// Trade-off: a shared machine loses at most one iteration's worth of waiting
+// per probe, instead of a descheduled thread's time slice at every barrier;
+// a machine that frees up waits up to 16 steps to get its threads back.
+#pragma once
+#include <cstddef>
+
+namespace parode::omp {
+
+class Team {
+public:
+    static Team& instance();
+    // Threads for a loop of `items` items whose crossover is `crossover` items.
+    int threads(std::size_t items, std::size_t crossover) const;
+    int max_threads() const;
+    // Sharing: whether this step may try threads; the sweep's verdict.
+    bool try_threads() const { return !shared_ || wait_ == 0; }
+    void verdict(bool shared);
+    bool shared() const { return shared_; }
+    // Called once a step (by the pipeline's solver) before the step's stages.
+    void next_step();
+
+private:
+    bool shared_ = false;
+    int wait_ = 0;     // steps until the next try while shared
+    int backoff_ = 1;  // the wait after the next failed try
+};
+
+}  // namespace parode::omp
