@@ -127,21 +127,22 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
 void apply_impulses(const SphereRow& K, BodyRow* bodies) {
     BodyRow& B1 = bodies[K.b1];
     BodyRow* B2 = K.b2 >= 0 ? &bodies[K.b2] : nullptr;
-    const double* lin[3] = {K.n, K.t1, K.t2};
-    const double ang[3][3] = {{0, 0, 0}, {-K.t2[0], -K.t2[1], -K.t2[2]}, {K.t1[0], K.t1[1], K.t1[2]}};
-    const int rows = K.mu > 0 ? 3 : 1;
-    for (int r = 0; r < rows; ++r) {
-        const double l = K.lambda[r];
-        if (l == 0) continue;
-        for (int i = 0; i < 3; ++i) {
-            B1.fc[i] += l * B1.invm * lin[r][i];
-            B1.fc[3 + i] += l * B1.invi * K.r1 * ang[r][i];
-        }
-        if (!B2) continue;
-        for (int i = 0; i < 3; ++i) {
-            B2->fc[i] -= l * B2->invm * lin[r][i];
-            B2->fc[3 + i] += l * B2->invi * K.r2 * ang[r][i];
-        }
+    const double l0 = K.lambda[0], l1 = K.mu > 0 ? K.lambda[1] : 0.0, l2 = K.mu > 0 ? K.lambda[2] : 0.0;
+    double dl[3], da[3];
+    for (int i = 0; i < 3; ++i) {
+        dl[i] = l0 * K.n[i] + (l1 * K.t1[i] + l2 * K.t2[i]);
+        da[i] = l2 * K.t1[i] - l1 * K.t2[i];
+    }
+    const double k1 = B1.invi * K.r1;
+    for (int i = 0; i < 3; ++i) {
+        B1.fc[i] += B1.invm * dl[i];
+        B1.fc[3 + i] += k1 * da[i];
+    }
+    if (!B2) return;
+    const double k2 = B2->invi * K.r2;
+    for (int i = 0; i < 3; ++i) {
+        B2->fc[i] -= B2->invm * dl[i];
+        B2->fc[3 + i] += k2 * da[i];
     }
 }
 

@@ -16,6 +16,7 @@
 #pragma once
 #include <ode/ode.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -80,42 +81,121 @@ void apply_impulses(const Block& K, BodyRow* bodies);
 namespace detail {
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 inline double clamp_row(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+// Two doubles in one SSE2 register (GCC/Clang vector extension): the lanes
+// are computed with the same IEEE operations, in the same order, as a double.
+using Pair = double __attribute__((vector_size(16)));
+inline void set_lane(double& v, int, double x) { v = x; }
+inline void set_lane(Pair& v, int l, double x) { v[l] = x; }
+inline double lane(double v, int) { return v; }
+inline double lane(const Pair& v, int l) { return v[l]; }
+template <class V>
+V splat(double x) {
+    V v;
+    set_lane(v, 0, x);
+    if constexpr (sizeof(V) > sizeof(double)) set_lane(v, 1, x);
+    return v;
+}
+template <class V>
+V dot(const V* a, const V* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+template <class V>
+V clamp(V v, V lo, V hi) { return v < lo ? lo : (v > hi ? hi : v); }
+template <class V>
+V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
 }  // namespace detail
 
-// One projected Gauss-Seidel update of every row of a contact.
-inline void relax(SphereRow& K, BodyRow* bodies) {
-    using detail::dot3;
-    BodyRow& B1 = bodies[K.b1];
-    BodyRow* B2 = K.b2 >= 0 ? &bodies[K.b2] : nullptr;
-    const double m1 = B1.invm, k1 = B1.invi * K.r1;
-    const double m2 = B2 ? B2->invm : 0.0, k2 = B2 ? B2->invi * K.r2 : 0.0;
-    double* f1 = B1.fc;
-    double* f2 = B2 ? B2->fc : nullptr;
-    const int rows = K.mu > 0 ? 3 : 1;
-    const double* lin[3] = {K.n, K.t1, K.t2};
-    double ang[3][3] = {{0, 0, 0}, {-K.t2[0], -K.t2[1], -K.t2[2]}, {K.t1[0], K.t1[1], K.t1[2]}};
-    for (int r = 0; r < rows; ++r) {
-        const double* d = lin[r];
-        const double* a = ang[r];
-        double jf = dot3(d, f1) + K.r1 * dot3(a, f1 + 3);
-        if (f2) jf += K.r2 * dot3(a, f2 + 3) - dot3(d, f2);
-        const double hi = r == 0 ? HUGE_VAL : std::fabs(K.mu * K.lambda[0]);
-        const double lo = r == 0 ? 0.0 : -hi;
-        const double old = K.lambda[r];
-        const double nl = detail::clamp_row(old + K.ad[r] * (K.rhs[r] - K.cfm * old - jf), lo, hi);
-        const double delta = nl - old;
-        K.lambda[r] = nl;
-        for (int i = 0; i < 3; ++i) {
-            f1[i] += delta * m1 * d[i];
-            f1[3 + i] += delta * k1 * a[i];
-        }
-        if (f2) {
-            for (int i = 0; i < 3; ++i) {
-                f2[i] -= delta * m2 * d[i];
-                f2[3 + i] += delta * k2 * a[i];
-            }
-        }
+// One projected Gauss-Seidel update of every row of L sphere contacts that
+// share no body (one per lane of V: double for one, detail::Pair for two),
+// bit for bit what each would give alone. The rows act on the relative
+// velocity terms u = fc1_lin - fc2_lin and w = r1 fc1_ang + r2 fc2_ang only,
+// so u and w are updated in registers row by row (exactly the rows' own
+// effect) and the bodies' corrections once at the end: a short dependency
+// chain instead of a round trip through memory per row. A static partner
+// reads as a body at rest with zero inverse mass; the friction rows of a
+// frictionless contact are clamped to zero: every lane runs the same code.
+template <class V, int L>
+inline void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
+    using namespace detail;
+    static const BodyRow none{};
+    const BodyRow* B1[L];
+    const BodyRow* B2[L];
+    for (int l = 0; l < L; ++l) {
+        B1[l] = &bodies[K[l]->b1];
+        B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
+    auto load = [&](auto get) {
+        V v;
+        for (int l = 0; l < L; ++l) set_lane(v, l, get(l));
+        return v;
+    };
+    V f1[6], f2[6], n[3], t1[3], t2[3];
+    for (int i = 0; i < 6; ++i) {
+        f1[i] = load([&](int l) { return B1[l]->fc[i]; });
+        f2[i] = load([&](int l) { return B2[l]->fc[i]; });
+    }
+    for (int i = 0; i < 3; ++i) {
+        n[i] = load([&](int l) { return K[l]->n[i]; });
+        t1[i] = load([&](int l) { return K[l]->t1[i]; });
+        t2[i] = load([&](int l) { return K[l]->t2[i]; });
+    }
+    const V r1 = load([&](int l) { return K[l]->r1; }), r2 = load([&](int l) { return K[l]->r2; });
+    const V m1 = load([&](int l) { return B1[l]->invm; }), m2 = load([&](int l) { return B2[l]->invm; });
+    const V k1 = load([&](int l) { return B1[l]->invi; }) * r1, k2 = load([&](int l) { return B2[l]->invi; }) * r2;
+    const V cfm = load([&](int l) { return K[l]->cfm; }), mu = load([&](int l) { return K[l]->mu; });
+    V ad[3], rhs[3], lam[3];
+    for (int r = 0; r < 3; ++r) {
+        ad[r] = load([&](int l) { return K[l]->ad[r]; });
+        rhs[r] = load([&](int l) { return K[l]->rhs[r]; });
+        lam[r] = load([&](int l) { return K[l]->lambda[r]; });
+    }
+    const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
+    V u[3], w[3];
+    for (int i = 0; i < 3; ++i) {
+        u[i] = f1[i] - f2[i];
+        w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
+    }
+    // Normal row: no angular part.
+    V x = lam[0] + ad[0] * (rhs[0] - cfm * lam[0] - dot(n, u));
+    const V n0 = x < zero ? zero : x;
+    const V d0 = n0 - lam[0];
+    for (int i = 0; i < 3; ++i) u[i] += d0 * m * n[i];
+    const V hi = abs(mu * n0), lo = -hi;
+    // Row t1: angular direction -t2.
+    x = lam[1] + ad[1] * (rhs[1] - cfm * lam[1] - (dot(t1, u) - dot(t2, w)));
+    const V n1 = clamp(x, lo, hi);
+    const V d1 = n1 - lam[1];
+    for (int i = 0; i < 3; ++i) {
+        u[i] += d1 * m * t1[i];
+        w[i] -= d1 * k * t2[i];
+    }
+    // Row t2: angular direction t1.
+    x = lam[2] + ad[2] * (rhs[2] - cfm * lam[2] - (dot(t2, u) + dot(t1, w)));
+    const V n2 = clamp(x, lo, hi);
+    const V d2 = n2 - lam[2];
+    V dl[3], da[3];
+    for (int i = 0; i < 3; ++i) {
+        dl[i] = d0 * n[i] + (d1 * t1[i] + d2 * t2[i]);
+        da[i] = d2 * t1[i] - d1 * t2[i];
+        f1[i] += m1 * dl[i];
+        f1[3 + i] += k1 * da[i];
+        f2[i] -= m2 * dl[i];
+        f2[3 + i] += k2 * da[i];
+    }
+    for (int l = 0; l < L; ++l) {
+        K[l]->lambda[0] = lane(n0, l);
+        K[l]->lambda[1] = lane(n1, l);
+        K[l]->lambda[2] = lane(n2, l);
+        BodyRow& b1 = bodies[K[l]->b1];
+        for (int i = 0; i < 6; ++i) b1.fc[i] = lane(f1[i], l);
+        if (K[l]->b2 < 0) continue;
+        BodyRow& b2 = bodies[K[l]->b2];
+        for (int i = 0; i < 6; ++i) b2.fc[i] = lane(f2[i], l);
+    }
+}
+
+inline void relax(SphereRow& K, BodyRow* bodies) {
+    SphereRow* one = &K;
+    relax_lanes<double, 1>(&one, bodies);
 }
 
 inline void relax(Block& K, BodyRow* bodies) {

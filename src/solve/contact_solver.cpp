@@ -268,12 +268,57 @@ void ContactSolver::build_phase() {
     if (exchange_) plan_exchange();
 }
 
+// Cells [t0, t1) of one colour as kStreams runs of whole cells with about equal
+// numbers of contacts. Each round takes the next contact of every stream and
+// relaxes them two at a time, one per SIMD lane (contacts of different cells
+// of a colour share no body, so this is exactly relaxing the cells one after
+// the other, and each body still sees its contacts in canonical order); the
+// pairs are independent, so the processor also overlaps one with the next.
+// The body rows of a stream's contact kAhead places on are fetched early, its
+// contact rows 4 kAhead places on.
 void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
+    constexpr int kStreams = 4;
+    constexpr std::size_t kAhead = 2;
     BodyRow* hot = hot_.data();
-    for (std::size_t p = layout_.cell_begin(t0); p < layout_.cell_begin(t1); ++p) {
-        SphereRow& K = rows_[p];
-        if (K.b1 >= 0) relax(K, hot);
-        else relax(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
+    std::size_t at[kStreams], end[kStreams];
+    const std::size_t p0 = layout_.cell_begin(t0), p1 = layout_.cell_begin(t1);
+    std::size_t t = t0;
+    for (int s = 0; s < kStreams; ++s) {
+        at[s] = layout_.cell_begin(t);
+        const std::size_t target = p0 + (p1 - p0) * static_cast<std::size_t>(s + 1) / kStreams;
+        while (t < t1 && layout_.cell_begin(t + 1) <= target) ++t;
+        if (s == kStreams - 1) t = t1;
+        end[s] = layout_.cell_begin(t);
+    }
+    for (bool busy = true; busy;) {
+        busy = false;
+        SphereRow* pack[2];
+        int held = 0;
+        for (int s = 0; s < kStreams; ++s) {
+            if (at[s] == end[s]) continue;
+            busy = true;
+            const std::size_t p = at[s]++;
+            if (p + kAhead < end[s]) {
+                const SphereRow& A = rows_[p + kAhead];
+                if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
+                if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
+            }
+            if (p + 4 * kAhead < end[s]) {
+                const char* row = reinterpret_cast<const char*>(&rows_[p + 4 * kAhead]);
+                for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);
+            }
+            SphereRow& K = rows_[p];
+            if (K.b1 < 0) {
+                relax(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
+                continue;
+            }
+            pack[held++] = &K;
+            if (held == 2) {
+                relax_lanes<detail::Pair, 2>(pack, hot);
+                held = 0;
+            }
+        }
+        if (held) relax_lanes<double, 1>(pack, hot);
     }
 }
 
