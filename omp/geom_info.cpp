@@ -45,7 +45,7 @@ std::uint32_t class_flags(dGeomID g, int cls) {
 void read_prim(dGeomID g, std::uint32_t flags, PrimData& p) {
     p.geom = g;
     p.id = geom_id(g);
-    p.pad = 0;
+    p.flags = flags;
     if (flags & kSphere) {
         const dReal* pos = dGeomGetPosition(g);
         for (int k = 0; k < 3; ++k) p.p[k] = pos[k];
@@ -85,6 +85,7 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
     info.category = dGeomGetCategoryBits(g);
     info.collide = dGeomGetCollideBits(g);
     if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
+    info.flags |= pack_bits(info.category, info.collide);
     read_extent(info);
     read_prim(g, info.flags, info.prim);
     return info;

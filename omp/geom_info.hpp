@@ -26,7 +26,22 @@ enum GeomFlag : std::uint32_t {
     kCustomBits = 1u << 7,  // category or collide bits differ from all-ones
     kFinite = 1u << 8,      // AABB finite on all six sides
     kStaleAabb = 1u << 9,   // not a primitive: AABB left for the serial refresh
+    kWideBits = 1u << 10,   // category or collide bits beyond what the flags hold
 };
+
+// Category and collide bits below 256 or all ones (ODE's default) ride in the
+// flags' top 16 bits as their low 8 bits, so that the pair filter needs no
+// other memory: for such values, `(a.category & b.collide) != 0` equals the
+// same test on the low 8 bits (all ones keeps a non-zero low byte, and the
+// other side's bits are below 256 or all ones too).
+inline std::uint32_t pack_bits(unsigned long category, unsigned long collide) {
+    const bool fits = (category < 256 || category == ~0ul) && (collide < 256 || collide == ~0ul);
+    if (!fits) return kWideBits;
+    return static_cast<std::uint32_t>(category & 0xff) << 16 | static_cast<std::uint32_t>(collide & 0xff) << 24;
+}
+inline bool packed_bits_pass(std::uint32_t fa, std::uint32_t fb) {
+    return ((fa >> 16) & (fb >> 24) & 0xff) | ((fb >> 16) & (fa >> 24) & 0xff);
+}
 
 struct GeomInfo {
     dReal aabb[6];  // ODE order: min x, max x, min y, max y, min z, max z

@@ -2,6 +2,10 @@
 // contact joint rows (normal with ERP/CFM, surface layer, max correcting
 // velocity and bounce; two friction rows bounded by mu * normal impulse; slip
 // as CFM), their effective masses scaled by the SOR factor.
+// The four-lane instantiation's helpers take and return 32-byte vectors; they
+// are always inlined into the AVX entry point, so no such vector crosses a
+// call and GCC's note on the ABI of passing them does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 #include "solve/contact_rows.hpp"
 
 #include <algorithm>
@@ -36,15 +40,6 @@ void targets(const ContactFrame& f, const RowInputs& in, double closing, double 
     cfm[2] = (s.mode & dContactSlip2) ? s.slip2 : in.cfm;
 }
 
-void tangents(const double* n, double* t1, double* t2) {
-    dVector3 nn = {n[0], n[1], n[2], 0}, p, q;
-    dPlaneSpace(nn, p, q);
-    for (int i = 0; i < 3; ++i) {
-        t1[i] = p[i];
-        t2[i] = q[i];
-    }
-}
-
 // Jacobian of one contact row along `dir` at lever arms c1, c2 (ODE's layout).
 void jacobian_row(const double* dir, const double* c1, const double* c2, double* J) {
     for (int i = 0; i < 3; ++i) {
@@ -62,8 +57,9 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     K.b1 = f.b1;
     K.b2 = f.b2;
     K.mu = in.surface->mu;
+    double t1[3], t2[3];
     for (int i = 0; i < 3; ++i) K.n[i] = f.n[i];
-    tangents(f.n, K.t1, K.t2);
+    tangent_frame(K.n, t1, t2);
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
     const double m = in.body[0]->invm + (two ? in.body[1]->invm : 0.0);
@@ -73,14 +69,13 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     double c[3], cfm[3];
     targets(f, in, closing, c, cfm);
     K.cfm = cfm[0] * in.fps;
-    const double* lin[3] = {K.n, K.t1, K.t2};
-    const double ang[3][3] = {{0, 0, 0}, {-K.t2[0], -K.t2[1], -K.t2[2]}, {K.t1[0], K.t1[1], K.t1[2]}};
+    K.ad_n = in.sor_w / (m + K.cfm);
+    K.ad_t = in.sor_w / (m + k + K.cfm);
+    const double* lin[3] = {K.n, t1, t2};
+    const double ang[3][3] = {{0, 0, 0}, {-t2[0], -t2[1], -t2[2]}, {t1[0], t1[1], t1[2]}};
     for (int r = 0; r < 3; ++r) {
-        const double* d = lin[r];
-        const double* a = ang[r];
-        double jt = dot3(d, in.tmp[0]) + K.r1 * dot3(a, in.tmp[0] + 3);
-        if (two) jt += K.r2 * dot3(a, in.tmp[1] + 3) - dot3(d, in.tmp[1]);
-        K.ad[r] = in.sor_w / (m * dot3(d, d) + k * dot3(a, a) + K.cfm);
+        double jt = dot3(lin[r], in.tmp[0]) + K.r1 * dot3(ang[r], in.tmp[0] + 3);
+        if (two) jt += K.r2 * dot3(ang[r], in.tmp[1] + 3) - dot3(lin[r], in.tmp[1]);
         K.rhs[r] = c[r] * in.fps - jt;
         K.lambda[r] = 0;
     }
@@ -97,8 +92,8 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
     double c[3], cfm[3];
     targets(f, in, closing, c, cfm);
     if (K.rows == 3) {
-        double t1[3], t2[3];
-        tangents(f.n, t1, t2);
+        dVector3 nn = {f.n[0], f.n[1], f.n[2], 0}, t1, t2;
+        dPlaneSpace(nn, t1, t2);
         jacobian_row(t1, f.c1, f.c2, K.J[1]);
         jacobian_row(t2, f.c1, f.c2, K.J[2]);
     }
@@ -124,14 +119,49 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
     }
 }
 
+namespace {
+bool avx_available() {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    return __builtin_cpu_supports("avx");
+#else
+    return false;
+#endif
+}
+bool use_four = avx_available();
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies) {
+    relax_lanes<detail::Quad, 4>(K, bodies);
+}
+#else
+void relax_avx(SphereRow* const* K, BodyRow* bodies) {
+    relax_lanes<detail::Pair, 2>(K, bodies);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies);
+}
+#endif
+}  // namespace
+
+void relax_four(SphereRow* const* K, BodyRow* bodies) {
+    if (use_four) {
+        relax_avx(K, bodies);
+        return;
+    }
+    relax_lanes<detail::Pair, 2>(K, bodies);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies);
+}
+
+bool four_lanes() { return use_four; }
+void set_four_lanes(bool on) { use_four = on && avx_available(); }
+
 void apply_impulses(const SphereRow& K, BodyRow* bodies) {
     BodyRow& B1 = bodies[K.b1];
     BodyRow* B2 = K.b2 >= 0 ? &bodies[K.b2] : nullptr;
-    const double l0 = K.lambda[0], l1 = K.mu > 0 ? K.lambda[1] : 0.0, l2 = K.mu > 0 ? K.lambda[2] : 0.0;
-    double dl[3], da[3];
+    const double l0 = K.lambda[0], l1 = K.lambda[1], l2 = K.lambda[2];
+    double t1[3], t2[3], dl[3], da[3];
+    tangent_frame(K.n, t1, t2);
     for (int i = 0; i < 3; ++i) {
-        dl[i] = l0 * K.n[i] + (l1 * K.t1[i] + l2 * K.t2[i]);
-        da[i] = l2 * K.t1[i] - l1 * K.t2[i];
+        dl[i] = l0 * K.n[i] + (l1 * t1[i] + l2 * t2[i]);
+        da[i] = l2 * t1[i] - l1 * t2[i];
     }
     const double k1 = B1.invi * K.r1;
     for (int i = 0; i < 3; ++i) {

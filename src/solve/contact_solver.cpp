@@ -186,8 +186,8 @@ const double* ContactSolver::inv_inertia(std::uint32_t local, double* diag) cons
     return diag;
 }
 
-void ContactSolver::build_row(std::size_t p) {
-    const std::uint32_t k = layout_.contact(p);
+void ContactSolver::build_row(std::size_t k) {
+    const std::size_t p = layout_.position(k);
     const ContactRecord& r = contacts_->items()[k];
     const ContactFrame f = frame(r, k);
     const SolverSpec& sv = scene_.solver;
@@ -262,15 +262,15 @@ void ContactSolver::build_phase() {
     fill_body_rows();
     match_previous();
     rows_.resize(nc);
-    for_ranges(nc, kGrain, [&](std::size_t p0, std::size_t p1) {
-        for (std::size_t p = p0; p < p1; ++p) build_row(p);
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) build_row(k);
     });
     if (exchange_) plan_exchange();
 }
 
 // Cells [t0, t1) of one colour as kStreams runs of whole cells with about equal
 // numbers of contacts. Each round takes the next contact of every stream and
-// relaxes them two at a time, one per SIMD lane (contacts of different cells
+// relaxes them together, one per SIMD lane (contacts of different cells
 // of a colour share no body, so this is exactly relaxing the cells one after
 // the other, and each body still sees its contacts in canonical order); the
 // pairs are independent, so the processor also overlaps one with the next.
@@ -292,7 +292,7 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
     }
     for (bool busy = true; busy;) {
         busy = false;
-        SphereRow* pack[2];
+        SphereRow* pack[kStreams];
         int held = 0;
         for (int s = 0; s < kStreams; ++s) {
             if (at[s] == end[s]) continue;
@@ -313,12 +313,11 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
                 continue;
             }
             pack[held++] = &K;
-            if (held == 2) {
-                relax_lanes<detail::Pair, 2>(pack, hot);
-                held = 0;
-            }
         }
-        if (held) relax_lanes<double, 1>(pack, hot);
+        if (held == 4) relax_four(pack, hot);
+        else if (held >= 2) relax_lanes<detail::Pair, 2>(pack, hot);
+        if (held == 3) relax_lanes<double, 1>(pack + 2, hot);
+        if (held == 1) relax_lanes<double, 1>(pack, hot);
     }
 }
 
@@ -371,10 +370,9 @@ void ContactSolver::plan_exchange() {
     exchange_->plan(touched_);
 }
 
-void ContactSolver::remember(std::size_t p) {
-    const std::uint32_t k = layout_.contact(p);
+void ContactSolver::remember(std::size_t k) {
     const ContactRecord& r = contacts_->items()[k];
-    const SphereRow& K = rows_[p];
+    const SphereRow& K = rows_[layout_.position(k)];
     const double* lambda = K.b1 >= 0 ? K.lambda : blocks_[static_cast<std::size_t>(-1 - K.b1)].lambda;
     const int rows = K.mu > 0 ? 3 : 1;
     WarmImpulse& m = previous_[k];
@@ -439,8 +437,8 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     SubstageTimer t(times_, "integrate");
     const std::size_t nc = contacts.size();
     previous_.resize(nc);
-    for_ranges(nc, kGrain, [&](std::size_t p0, std::size_t p1) {
-        for (std::size_t p = p0; p < p1; ++p) remember(p);
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) remember(k);
     });
     for_ranges(bodies_.size(), kGrain, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) integrate_body(i);

@@ -116,10 +116,10 @@ private:
     void classify(std::size_t k);
     void fill_body_rows();
     void match_previous();
-    void build_row(std::size_t p);
+    void build_row(std::size_t k);
     void plan_exchange();
     void integrate_body(std::size_t i);
-    void remember(std::size_t p);
+    void remember(std::size_t k);
     void commit(World& world) const;
     void build_phase();
     ContactFrame frame(const ContactRecord& r, std::uint32_t k) const;

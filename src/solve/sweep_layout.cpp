@@ -198,14 +198,14 @@ void SweepLayout::place_contacts() {
         acc += contacts[task_cell_[j]];
     }
     pos_start_[tasks] = acc;
-    contact_.resize(acc);
+    position_.resize(run_count_.empty() ? 0 : acc);
     for_ranges(tasks, kGrain / 8, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) {
             std::size_t p = pos_start_[j];
             const std::uint32_t t = task_cell_[j];
             for (std::uint32_t s = cell_slot_[t]; s < cell_slot_[t + 1]; ++s) {
                 const std::uint32_t b = order_[s];
-                for (std::uint32_t q = 0; q < run_count_[b]; ++q) contact_[p++] = run_first_[b] + q;
+                for (std::uint32_t q = 0; q < run_count_[b]; ++q) position_[run_first_[b] + q] = static_cast<std::uint32_t>(p++);
             }
         }
     });

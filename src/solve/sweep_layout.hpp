@@ -6,7 +6,9 @@
 // order, and a cell's contacts are its bodies' contacts taken body by body in
 // id order, each body's in canonical order: the canonical order within the
 // cell. Positions number the contacts in that order: colour by colour, cell by
-// cell, so a sweep reads its rows front to back.
+// cell, so a sweep reads its rows front to back; the layout maps each contact
+// to its position, so that a pass in canonical order reads its inputs front
+// to back too.
 // The sort is a counting sort over the cells of the bodies' bounding box
 // (z-slabs in parallel), or a comparison sort when the box holds more than
 // 8 cells per body (bodies scattered far apart). Results never depend on the
@@ -42,8 +44,8 @@ public:
     std::size_t cells() const { return colour_start_[kColours]; }
     // Positions of cell t: [cell_begin(t), cell_begin(t + 1)).
     std::size_t cell_begin(std::size_t t) const { return pos_start_[t]; }
-    // The contact (canonical index) at position p.
-    std::uint32_t contact(std::size_t p) const { return contact_[p]; }
+    // The position of contact k (canonical index).
+    std::uint32_t position(std::size_t k) const { return position_[k]; }
 
 private:
     struct Box {
@@ -68,7 +70,7 @@ private:
     std::vector<std::uint32_t> task_cell_;   // per listed cell (with contacts): its cell of bodies
     std::vector<std::size_t> pos_start_;     // per listed cell: first position, + total
     std::array<std::size_t, kColours + 1> colour_start_{};
-    std::vector<std::uint32_t> contact_;
+    std::vector<std::uint32_t> position_;    // per contact
 };
 
 }  // namespace parode
