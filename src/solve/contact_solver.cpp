@@ -386,8 +386,9 @@ void ContactSolver::remember(std::size_t k) {
 // rotation): v += h (invM fe + fc); x += h v; q += h/2 (0, w) q, normalised.
 // Velocities, forces and torques go straight to ODE (each touches its own
 // body only); the pose waits for commit (setting it moves the geom in its space).
-void ContactSolver::integrate_body(std::size_t i) {
-    if (world_->ghost(i)) return;  // its owner integrates it
+// Returns whether the new state is finite.
+bool ContactSolver::integrate_body(std::size_t i) {
+    if (world_->ghost(i)) return true;  // its owner integrates it
     BodyData& B = bodies_[i];
     dBodyID b = world_->body(i);
     const double h = scene_.dt;
@@ -411,6 +412,11 @@ void ContactSolver::integrate_body(std::size_t i) {
     dBodySetAngularVel(b, v[3], v[4], v[5]);
     dBodySetForce(b, 0, 0, 0);
     dBodySetTorque(b, 0, 0, 0);
+    double sum = 0;  // finite iff the sum of every component times zero is zero
+    for (int k = 0; k < 3; ++k) sum += B.x[k] * 0.0;
+    for (int k = 0; k < 4; ++k) sum += B.acc[k] * 0.0;
+    for (int k = 0; k < 6; ++k) sum += v[k] * 0.0;
+    return sum == 0;
 }
 
 void ContactSolver::commit(World& world) const {
@@ -440,9 +446,14 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) remember(k);
     });
-    for_ranges(bodies_.size(), kGrain, [&](std::size_t i0, std::size_t i1) {
-        for (std::size_t i = i0; i < i1; ++i) integrate_body(i);
+    const std::size_t nb = bodies_.size(), chunks = chunk_count(nb, kGrain);
+    std::vector<unsigned char> finite(chunks, 1);
+    loops().run(chunks, nb, [&](std::size_t c) {
+        bool ok = true;
+        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) ok &= integrate_body(i);
+        finite[c] = ok;
     });
+    finite_ = std::all_of(finite.begin(), finite.end(), [](unsigned char f) { return f != 0; });
     commit(world);
 }
 

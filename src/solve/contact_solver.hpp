@@ -78,6 +78,7 @@ public:
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
     const Substages* substages() const override { return &times_; }
+    bool wrote_finite_state() const override { return finite_; }
 
     static constexpr int kColours = SweepLayout::kColours;
     // Contacts of the last step as compact sphere rows and as general blocks.
@@ -118,7 +119,7 @@ private:
     void match_previous();
     void build_row(std::size_t k);
     void plan_exchange();
-    void integrate_body(std::size_t i);
+    bool integrate_body(std::size_t i);
     void remember(std::size_t k);
     void commit(World& world) const;
     void build_phase();
@@ -148,6 +149,7 @@ private:
     std::vector<std::vector<std::uint32_t>> touched_;  // per colour, for the exchange
     std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
     Substages times_;
+    bool finite_ = false;  // every owned body's new state was finite
 };
 
 }  // namespace parode

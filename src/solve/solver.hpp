@@ -39,6 +39,9 @@ public:
     virtual void set_exchange(CorrectionExchange* /*exchange*/) {}
     // Seconds spent in the backend's substages so far, or null.
     virtual const Substages* substages() const { return nullptr; }
+    // True when the last step wrote every owned body's state and found it
+    // finite as it did (the guard then skips its own scan).
+    virtual bool wrote_finite_state() const { return false; }
 };
 
 // Factories take the scene and the run's thread count.
