@@ -40,8 +40,9 @@ bool too_much_waiting(const std::vector<Clock>& clocks) {
 }  // namespace
 
 void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
-    Team::instance().next_step();
+    Team::instance().begin_step();
     ContactSolver::step(world, contacts);
+    Team::instance().end_step();
 }
 
 // Per colour, one cell range per thread holding about equal numbers of contacts.

@@ -40,8 +40,4 @@ void Team::verdict(bool shared) {
     backoff_ = std::min(2 * backoff_, 16);
 }
 
-void Team::next_step() {
-    if (shared_ && wait_ > 0) --wait_;
-}
-
 }  // namespace parode::omp

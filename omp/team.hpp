@@ -27,13 +27,17 @@ public:
     bool try_threads() const { return !shared_ || wait_ == 0; }
     void verdict(bool shared);
     bool shared() const { return shared_; }
-    // Called once a step (by the pipeline's solver) before the step's stages.
-    void next_step();
+    // The solver's step begins and ends (a step run alone counts down the wait).
+    void begin_step() { alone_ = !try_threads(); }
+    void end_step() {
+        if (alone_ && wait_ > 0) --wait_;
+    }
 
 private:
     bool shared_ = false;
-    int wait_ = 0;     // steps until the next try while shared
-    int backoff_ = 1;  // the wait after the next failed try
+    bool alone_ = false;  // this step runs on one thread
+    int wait_ = 0;        // steps to run alone before the next try
+    int backoff_ = 1;     // the wait after the next failed try
 };
 
 }  // namespace parode::omp

@@ -218,12 +218,12 @@ void SweepLayout::build(const LayoutInput& in) {
     const double cells = static_cast<double>(box.dim[0]) * static_cast<double>(box.dim[1]) * static_cast<double>(box.dim[2]);
     if (cells <= 8.0 * static_cast<double>(n) + 4096.0) sort_dense(in, box);
     else sort_sparse(in);
+    list_cells(in);
+    order_within_cells(in);
     slot_.resize(n);
     for_ranges(n, kGrain, [&](std::size_t s0, std::size_t s1) {
         for (std::size_t s = s0; s < s1; ++s) slot_[order_[s]] = static_cast<std::uint32_t>(s);
     });
-    list_cells(in);
-    order_within_cells(in);
     colour_.resize(cell_slot_.size() - 1);
     for_ranges(colour_.size(), kGrain, [&](std::size_t t0, std::size_t t1) {
         for (std::size_t t = t0; t < t1; ++t) colour_[t] = static_cast<std::uint8_t>(CellSpace::colour(in.cell[order_[cell_slot_[t]]]));
