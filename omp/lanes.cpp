@@ -12,6 +12,7 @@
 #include "lanes.hpp"
 #include "geom_info.hpp"
 #include "task_split.hpp"
+#include "util/scratch.hpp"
 
 #include <algorithm>
 
@@ -158,7 +159,7 @@ void copy_blocks(const std::vector<Lane>& lanes, const FastSource& fast, const s
         contacts[b] = acc;
         acc += c;
     }
-    out.items().resize(acc);  // no clear first: kept elements need no zeroing
+    scratch_resize(out.items(), acc);  // every element is written below
     ContactRecord* dst = out.items().data();
     const Lane* lane = lanes.data();
     const RunRef* ref = refs.data();
@@ -210,7 +211,7 @@ void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
-    m.refs.resize(m.block_start.back());
+    scratch_resize(m.refs, m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
     int repeated = 0;
     sort_blocks(m.block_start, m.refs, m.contacts, m.repeated, repeated);

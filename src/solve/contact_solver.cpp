@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "util/parallel.hpp"
+#include "util/scratch.hpp"
 
 namespace parode {
 namespace {
@@ -146,7 +147,7 @@ void ContactSolver::fill_body_rows() {
 // chunk by chunk from a binary search for the chunk's first contact.
 void ContactSolver::match_previous() {
     const auto& items = contacts_->items();
-    warm_.assign(items.size(), kNone);
+    scratch_assign(warm_, items.size(), kNone);
     if (!scene_.solver.warm_start || previous_.empty()) return;
     auto before = [](const WarmImpulse& m, const ContactRecord& r) {
         return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
@@ -241,9 +242,9 @@ void ContactSolver::build_phase() {
     for_ranges(nb, kGrain, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
     });
-    owner_.resize(nc);
-    other_.resize(nc);
-    block_of_.resize(nc);
+    scratch_resize(owner_, nc);
+    scratch_resize(other_, nc);
+    scratch_resize(block_of_, nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) classify(k);
     });
@@ -261,7 +262,7 @@ void ContactSolver::build_phase() {
     layout_.build(li);
     fill_body_rows();
     match_previous();
-    rows_.resize(nc);
+    scratch_resize(rows_, nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) build_row(k);
     });
@@ -442,7 +443,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     }
     SubstageTimer t(times_, "integrate");
     const std::size_t nc = contacts.size();
-    previous_.resize(nc);
+    scratch_resize(previous_, nc);  // last step's impulses were read by build_row
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) remember(k);
     });

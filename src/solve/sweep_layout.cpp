@@ -8,6 +8,7 @@
 
 #include "domain/cells.hpp"
 #include "util/parallel.hpp"
+#include "util/scratch.hpp"
 
 namespace parode {
 namespace {
@@ -198,7 +199,7 @@ void SweepLayout::place_contacts() {
         acc += contacts[task_cell_[j]];
     }
     pos_start_[tasks] = acc;
-    position_.resize(run_count_.empty() ? 0 : acc);
+    scratch_resize(position_, acc);
     for_ranges(tasks, kGrain / 8, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) {
             std::size_t p = pos_start_[j];

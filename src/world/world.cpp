@@ -82,6 +82,9 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     dWorldSetAutoDisableAngularThreshold(world_, s.auto_disable_angular);
     dWorldSetAutoDisableSteps(world_, s.auto_disable_steps);
     dWorldSetAutoDisableTime(world_, 0);
+    // Without auto-disable no body averages its velocity: no sample buffers
+    // (two allocations a body, 64 bytes of ODE's 1 KB per body).
+    if (!s.auto_disable) dWorldSetAutoDisableAverageSamplesCount(world_, 0);
     const std::size_t n = gids ? gids->size() : global_;
     map_.reset(global_, n);
     bodies_.reserve(n);
