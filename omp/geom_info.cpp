@@ -91,7 +91,7 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
     return info;
 }
 
-void refresh_stale(std::vector<GeomInfo>& infos) {
+void refresh_stale(GeomTable& infos) {
     for (GeomInfo& info : infos) {
         if (!(info.flags & kStaleAabb)) continue;
         dGeomID g = info.prim.geom;
@@ -106,7 +106,7 @@ void list_space(dSpaceID space, std::vector<dGeomID>& out) {
     for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = dSpaceGetGeom(space, i);
 }
 
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out) {
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
     const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
@@ -121,7 +121,7 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo
 }
 
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
-                                   std::vector<GeomInfo>& out) {
+                                   GeomTable& out) {
     const std::size_t n = static_cast<std::size_t>(dSpaceGetNumGeoms(space));
     geoms.resize(n);
     out.resize(n);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fast_pairs.hpp"
+#include "util/scratch_pool.hpp"
 
 namespace parode::omp {
 
@@ -53,6 +54,9 @@ struct GeomInfo {
     PrimData prim;  // geom, id, and sphere/plane parameters
 };
 
+// The geoms of one call, in a scratch pool slot (util/scratch_pool.hpp).
+using GeomTable = ScratchArray<GeomInfo>;
+
 // Read one geom, bringing its AABB up to date (dGeomGetAABB). With
 // `primitives_only`, only primitive geoms are refreshed (safe concurrently:
 // the call writes that geom alone); others get kStaleAabb for the serial
@@ -60,20 +64,20 @@ struct GeomInfo {
 GeomInfo read_geom(dGeomID g, bool primitives_only = false);
 
 // Serially refreshes and re-reads the kStaleAabb entries of `infos`.
-void refresh_stale(std::vector<GeomInfo>& infos);
+void refresh_stale(GeomTable& infos);
 
 // The geoms of a space in ODE's list order (serial: ODE's enumerator is stateful).
 void list_space(dSpaceID space, std::vector<dGeomID>& out);
 
 // read_geom over a list, as OpenMP tasks when called inside a parallel region.
 // Returns the union of all geoms' flags.
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out);
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out);
 
 // list_space and read_geoms overlapped: the calling thread walks ODE's list
 // (serial, one cache miss per geom in large spaces) and hands each listed
 // block to a task that reads it while the walk goes on.
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
-                                   std::vector<GeomInfo>& out);
+                                   GeomTable& out);
 
 // ODE's closed AABB overlap test (disjoint only if strictly separated).
 // Evaluated without branches (bitwise or of the six comparisons): the outcome

@@ -57,7 +57,7 @@ int default_threads() {
 
 // Extent above which a geom goes to the big list: a few times the typical
 // (90th percentile of a sample) extent, so one outlier cannot coarsen the grid.
-double big_threshold(const std::vector<GeomInfo>& infos) {
+double big_threshold(const GeomTable& infos) {
     std::vector<double> sample;
     const std::size_t stride = std::max<std::size_t>(1, infos.size() / 512);
     for (std::size_t i = 0; i < infos.size(); i += stride) {
@@ -81,7 +81,8 @@ struct CollideEngine::Impl {
     std::vector<dGeomID> list;
     dSpaceID flat_space = nullptr;                   // set_geoms hint
     const std::vector<dGeomID>* flat_geoms = nullptr;
-    std::vector<GeomInfo> infos;
+    ScratchPool own_pool;                            // unless set_scratch gives a shared one
+    GeomTable infos{&own_pool, kSlotGeoms};
     std::vector<std::uint32_t> small, big;
     std::vector<std::uint8_t> bucket;
     struct SplitPart {
@@ -164,8 +165,7 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
 void CollideEngine::Impl::read_space(dSpaceID space) {
     const bool flat = space == flat_space && flat_geoms &&
                       flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
-    if (flat) list = *flat_geoms;
-    const std::uint32_t any = flat ? read_geoms(list, infos) : read_space_pipelined(space, list, infos);
+    const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos) : read_space_pipelined(space, list, infos);
     if (any & kStaleAabb) refresh_stale(infos);
     if (any & kUser) use_reference = true;
 }
@@ -364,7 +364,13 @@ void CollideEngine::Impl::drain_deferred() {
     }
 }
 
-CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) {}
+CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) { set_scratch(nullptr); }
+
+void CollideEngine::set_scratch(ScratchPool* pool) {
+    ScratchPool* p = pool ? pool : &impl_->own_pool;
+    impl_->infos.set_pool(p);
+    impl_->grid.set_scratch(p);
+}
 CollideEngine::~CollideEngine() = default;
 
 void CollideEngine::set_threads(int threads) { impl_->threads = std::max(0, threads); }

@@ -48,6 +48,9 @@ public:
     // instead of walking ODE's list (nullptr forgets the hint).
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms);
     int threads() const;
+    // Where the per-call geom tables live (slots kSlotGeoms, kSlotEntries,
+    // kSlotPrims of util/scratch_pool.hpp); null: the engine's own pool.
+    void set_scratch(ScratchPool* pool);
 
     // Every contact of `space`, recursing into nested spaces; equals
     // collide_space_reference(space, ...). `out` is overwritten.
@@ -85,6 +88,7 @@ public:
     void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override;
     void set_threads(int threads) override { engine_.set_threads(threads); }
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
+    void set_scratch(ScratchPool* pool) override { engine_.set_scratch(pool); }
     const CollideEngine& engine() const { return engine_; }
     // refresh (reading the geoms), broadphase (split, grid, candidates),
     // narrowphase (exact tests, dCollide, deferred pairs), merge.

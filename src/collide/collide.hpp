@@ -15,6 +15,7 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
+#include "util/scratch_pool.hpp"
 #include "util/substages.hpp"
 
 namespace parode {
@@ -38,6 +39,9 @@ public:
     virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
     // Seconds spent in the backend's substages so far, or null.
     virtual const Substages* substages() const { return nullptr; }
+    // A pool for the per-call tables, shared with stages that run at other
+    // times of the step (util/scratch_pool.hpp).
+    virtual void set_scratch(ScratchPool* /*pool*/) {}
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

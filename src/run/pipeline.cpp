@@ -20,11 +20,13 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     domain_->check_scene(scene, options.collide, options.solver);
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
+    backend_->set_scratch(&scratch_);
     const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());
+    solver_->set_scratch(&scratch_);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
     if (stage(Stage::Output).enabled && domain_->root()) {

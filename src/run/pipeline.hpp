@@ -104,6 +104,7 @@ private:
     const Scene& scene_;
     std::unique_ptr<Domain> own_domain_;
     Domain* domain_ = nullptr;
+    ScratchPool scratch_;  // shared by the collider and the solver
     std::unique_ptr<CollideBackend> backend_;
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;

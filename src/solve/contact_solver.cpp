@@ -67,6 +67,13 @@ bool sphere_or_plane(World::GeomShape s) { return s == World::GeomShape::Sphere 
 // 4 r_max they span at most two cells per axis, of different parity.
 ContactSolver::ContactSolver(const Scene& scene) : scene_(scene), cells_(scene) {}
 
+void ContactSolver::set_scratch(ScratchPool* pool) {
+    ScratchPool* p = pool ? pool : &own_pool_;
+    bodies_.set_pool(p);
+    hot_.set_pool(p);
+    rows_.set_pool(p);
+}
+
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
     BodyData& B = bodies_[i];
@@ -262,7 +269,7 @@ void ContactSolver::build_phase() {
     layout_.build(li);
     fill_body_rows();
     match_previous();
-    scratch_resize(rows_, nc);
+    rows_.resize(nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) build_row(k);
     });

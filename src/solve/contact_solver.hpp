@@ -29,6 +29,7 @@
 #include "solve/contact_rows.hpp"
 #include "solve/solver.hpp"
 #include "solve/sweep_layout.hpp"
+#include "util/scratch_pool.hpp"
 #include "util/substages.hpp"
 #include "world/world.hpp"
 
@@ -77,6 +78,7 @@ public:
     void step(World& world, const ContactBuffer& contacts) override;
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
+    void set_scratch(ScratchPool* pool) override;
     const Substages* substages() const override { return &times_; }
     bool wrote_finite_state() const override { return finite_; }
 
@@ -132,7 +134,8 @@ private:
     const World* world_ = nullptr;
     const ContactBuffer* contacts_ = nullptr;
     bool general_only_ = false;
-    std::vector<BodyData> bodies_;                   // per local body
+    ScratchPool own_pool_;                           // unless set_scratch gives a shared one
+    ScratchArray<BodyData> bodies_{&own_pool_, kSlotBodies};  // per local body
     std::vector<std::array<double, 9>> invI_;        // per local body, unless all are spheres
     std::uint64_t shapes_of_ = ~0ULL;                // world generation all_spheres_ is for
     bool all_spheres_ = true;
@@ -140,8 +143,8 @@ private:
     std::vector<std::uint32_t> owner_, other_;       // per contact: local bodies of lo and hi (or none)
     std::vector<std::uint32_t> block_of_;            // per contact: index into blocks_, or kNone
     SweepLayout layout_;
-    std::vector<BodyRow> hot_;                       // per body slot
-    std::vector<SphereRow> rows_;                    // per position; general: b1 = -1 - block index
+    ScratchArray<BodyRow> hot_{&own_pool_, kSlotBodyRows};  // per body slot
+    ScratchArray<SphereRow> rows_{&own_pool_, kSlotRows};   // per position; general: b1 = -1 - block index
     std::vector<Block> blocks_;
     std::vector<WarmImpulse> previous_;              // last step's impulses, canonical order
     std::vector<std::uint32_t> warm_;                // contact -> index into previous_, or kNone
