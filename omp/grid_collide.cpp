@@ -20,6 +20,7 @@
 #include "geom_info.hpp"
 #include "grid_pairs.hpp"
 #include "lanes.hpp"
+#include "team.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -29,6 +30,9 @@ namespace parode::omp {
 namespace {
 
 constexpr std::size_t kGridChunk = 256;  // sorted geoms per task in the grid pass
+// Geoms below which a call runs on one thread (measured: README.md, "Threads
+// and small scenes").
+constexpr std::size_t kCollideCrossover = 2000;
 constexpr std::size_t kScanChunk = 512;  // geoms per task in scans against a few geoms
 
 bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
@@ -99,6 +103,11 @@ struct CollideEngine::Impl {
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
+    // One thread below the measured crossover or on shared cores (team.hpp).
+    int team_for(dSpaceID space) const {
+        const std::size_t n = static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+        return Team::instance().threads(n, kCollideCrossover) > 1 ? team_size() : 1;
+    }
     // The pair tasks' wall time in proportion to the threads' time in each part.
     void split_pairs() {
         double b = 0, n = 0;
@@ -383,7 +392,7 @@ const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { retur
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;
-    const int team = m.team_size();
+    const int team = m.team_for(space);
     m.start(max_contacts, team);
     // No dSpaceClean: the parallel read refreshes the primitives' AABBs and the
     // rest serially (refresh_stale); ODE's dirty flags stay set, harmlessly.
@@ -413,7 +422,7 @@ void GridBackend::collide(dSpaceID space, int max_contacts, ContactBuffer& out) 
 
 void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;
-    const int team = m.team_size();
+    const int team = m.team_for(space);
     m.start(max_contacts, team);
     dSpaceClean(space);
     if (dGeomIsSpace(geom)) dSpaceClean(reinterpret_cast<dSpaceID>(geom));

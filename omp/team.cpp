@@ -30,7 +30,7 @@ int Team::threads(std::size_t items, std::size_t crossover) const {
 }
 
 void Team::verdict(bool shared) {
-    if (!shared) {
+    if (!shared || !adaptive_) {
         shared_ = false;
         backoff_ = 1;
         return;

@@ -27,6 +27,8 @@ public:
     bool try_threads() const { return !shared_ || wait_ == 0; }
     void verdict(bool shared);
     bool shared() const { return shared_; }
+    // Off: verdicts are ignored, threads always tried (to measure crossovers).
+    void set_adaptive(bool on) { adaptive_ = on; }
     // The solver's step begins and ends (a step run alone counts down the wait).
     void begin_step() { alone_ = !try_threads(); }
     void end_step() {
@@ -34,6 +36,7 @@ public:
     }
 
 private:
+    bool adaptive_ = true;
     bool shared_ = false;
     bool alone_ = false;  // this step runs on one thread
     int wait_ = 0;        // steps to run alone before the next try

@@ -133,7 +133,20 @@ void ContactSolver::classify(std::size_t k) {
     const ContactRecord& r = contacts_->items()[k];
     owner_[k] = world_->local_of(r.lo);  // lo is a body: static geoms' ids follow all bodies'
     other_[k] = world_->is_body_id(r.hi) ? world_->local_of(r.hi) : kNone;
-    block_of_[k] = sphere_pair(r, k) ? kNone : 0;
+    block_of_[k] = all_rows_ || sphere_pair(r, k) ? kNone : 0;
+}
+
+// Every contact a sphere row: all bodies spheres (isotropic: World gives them
+// a sphere's mass), all static geoms planes, one CFM per material pair.
+bool ContactSolver::only_sphere_rows() const {
+    if (general_only_ || !all_spheres_ || !world_->scene().statics.empty()) return false;
+    const std::size_t m = world_->scene().materials.size();
+    for (std::size_t a = 0; a < m; ++a) {
+        for (std::size_t b = 0; b < m; ++b) {
+            if (!uniform_cfm(world_->surface(static_cast<int>(a), static_cast<int>(b)), scene_.solver.cfm)) return false;
+        }
+    }
+    return true;
 }
 
 void ContactSolver::fill_body_rows() {
@@ -246,6 +259,7 @@ void ContactSolver::build_phase() {
                                    [this](std::uint32_t g) { return world_->geom_shape(g) == World::GeomShape::Sphere; });
     }
     invI_.resize(all_spheres_ ? 0 : nb);
+    all_rows_ = only_sphere_rows();
     for_ranges(nb, kGrain, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
     });

@@ -127,6 +127,7 @@ private:
     void build_phase();
     ContactFrame frame(const ContactRecord& r, std::uint32_t k) const;
     bool sphere_pair(const ContactRecord& r, std::size_t k) const;
+    bool only_sphere_rows() const;
     const double* inv_inertia(std::uint32_t local, double* diag) const;
 
     const Scene& scene_;
@@ -139,6 +140,7 @@ private:
     std::vector<std::array<double, 9>> invI_;        // per local body, unless all are spheres
     std::uint64_t shapes_of_ = ~0ULL;                // world generation all_spheres_ is for
     bool all_spheres_ = true;
+    bool all_rows_ = false;                          // this step: every contact a sphere row
     std::vector<std::uint64_t> cell_;                // per local body
     std::vector<std::uint32_t> owner_, other_;       // per contact: local bodies of lo and hi (or none)
     std::vector<std::uint32_t> block_of_;            // per contact: index into blocks_, or kNone
