@@ -28,11 +28,12 @@ struct alignas(64) Clock {
     double work = 0, wait = 0;
 };
 
-// A thread waited at the barriers more than half as long as it worked: the
-// threads cost more than they give (shared cores, or too little work).
+// A thread waited at the barriers more than half as long as it worked, and
+// long enough to be a descheduled thread rather than a slow wake-up (200 us;
+// a time slice is milliseconds): the threads cost more than they give.
 bool too_much_waiting(const std::vector<Clock>& clocks) {
     for (const Clock& c : clocks) {
-        if (c.wait > 0.5 * c.work) return true;
+        if (c.wait > 0.5 * c.work && c.wait > 2e-4) return true;
     }
     return false;
 }
@@ -71,14 +72,13 @@ void ParallelContactSolver::split(int team) {
 
 void ParallelContactSolver::sweep(int passes, bool warm) {
     Team& team = Team::instance();
-    const int t = team.threads(contact_count(), kSweepCrossover);
+    const int t = team.sweep_threads(contact_count(), kSweepCrossover);
     if (t <= 1 || passes <= 0) {
         ContactSolver::sweep(passes, warm);
         return;
     }
     split(t);
-    const bool alone = sweep_threaded(passes, warm, t);
-    if (passes > 1) team.verdict(alone);
+    team.verdict(sweep_threaded(passes, warm, t));
 }
 
 // The threads relax their ranges colour by colour; each iteration's clocks

@@ -4,9 +4,9 @@
 // a colour cut into one contiguous range per thread with equal numbers of
 // contacts (cells are sorted in space, so each thread keeps its bodies in
 // cache; cells of one colour touch disjoint bodies), a barrier after each
-// colour. The threads time their work and their waits: when the waiting
-// outweighs the work (another process holds a core, or the scene is too small
-// for threads), the rest of the step runs on one thread (omp/team.hpp).
+// colour. The threads time their work and their waits: when a thread waits
+// more than half as long as it works (another process holds a core), the rest
+// of the step runs on one thread (omp/team.hpp).
 // Results are bit for bit those of the serial "pgs" for any thread count.
 // Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
 // above the crossover (README.md); the timing costs two clock reads a colour.

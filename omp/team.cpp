@@ -24,6 +24,12 @@ int Team::max_threads() const {
 }
 
 int Team::threads(std::size_t items, std::size_t crossover) const {
+    if (shared_) return 1;
+    if (static_cast<long>(items) < min_parallel(static_cast<long>(crossover))) return 1;
+    return max_threads();
+}
+
+int Team::sweep_threads(std::size_t items, std::size_t crossover) const {
     if (!try_threads()) return 1;
     if (static_cast<long>(items) < min_parallel(static_cast<long>(crossover))) return 1;
     return max_threads();

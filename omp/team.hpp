@@ -4,14 +4,17 @@
 //   (a parallel region costs a few microseconds, more than it saves on small
 //   scenes; the crossovers are in README.md, "Threads and small scenes").
 // - Sharing: when another process holds one of our cores, every barrier waits
-//   for a thread the kernel has descheduled. The threaded sweep of the contact
-//   solver measures how long its threads wait at the colour barriers; when
-//   they wait more than they work, the rest of the step runs on one thread and
-//   the stages after it stay on one thread, trying threads again on a later
-//   step (after 1, 2, 4, ... 16 steps while the sharing lasts).
-// Trade-off: a shared machine loses at most one iteration's worth of waiting
-// per probe, instead of a descheduled thread's time slice at every barrier;
-// a machine that frees up waits up to 16 steps to get its threads back.
+//   for a thread the kernel has descheduled. The threaded sweeps of the
+//   contact solver (warm start, then each iteration) measure how long their
+//   threads wait at the colour barriers against how long they work; when a
+//   thread waits more than half as long as it works, the rest of the step's
+//   sweeps run on one thread, and so do all other stages from then on. Only
+//   the sweeps try threads again, on a later step (after 1, 2, 4, ... 16 steps
+//   while the sharing lasts); when a try succeeds every stage has its threads
+//   back.
+// Trade-off: a shared machine loses at most one pass's worth of waiting per
+// try, instead of a descheduled thread's time slice at every barrier of every
+// stage; a machine that frees up waits up to 16 steps to get its threads back.
 #pragma once
 #include <cstddef>
 
@@ -20,8 +23,11 @@ namespace parode::omp {
 class Team {
 public:
     static Team& instance();
-    // Threads for a loop of `items` items whose crossover is `crossover` items.
+    // Threads for a loop of `items` items whose crossover is `crossover` items
+    // (one while the cores are shared).
     int threads(std::size_t items, std::size_t crossover) const;
+    // The same for the solver's sweeps, which try threads again now and then.
+    int sweep_threads(std::size_t items, std::size_t crossover) const;
     int max_threads() const;
     // Sharing: whether this step may try threads; the sweep's verdict.
     bool try_threads() const { return !shared_ || wait_ == 0; }

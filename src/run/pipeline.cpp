@@ -88,9 +88,8 @@ void Pipeline::timed(Stage s, F&& f) {
     StageState& st = stages_[static_cast<int>(s)];
     if (!st.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
-    const double c0 = cpu_now();
     f();
-    st.seconds += cpu_clock() ? cpu_now() - c0 : std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 void Pipeline::step() {

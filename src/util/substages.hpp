@@ -7,8 +7,6 @@
 // names, kept out of inner loops.
 #pragma once
 #include <chrono>
-#include <cstdlib>
-#include <ctime>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,14 +34,12 @@ private:
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
-inline double cpu_now() { timespec ts; clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts); return ts.tv_sec + 1e-9 * ts.tv_nsec; }
-inline bool cpu_clock() { static const bool on = std::getenv("PARODE_CPU_CLOCK") != nullptr; return on; }
 
 // Times the rest of a scope into `into` under `name`.
 class SubstageTimer {
 public:
-    SubstageTimer(Substages& into, const char* name) : into_(into), name_(name), t0_(std::chrono::steady_clock::now()), c0_(cpu_now()) {}
-    ~SubstageTimer() { into_.add(name_, cpu_clock() ? cpu_now() - c0_ : seconds_since(t0_)); }
+    SubstageTimer(Substages& into, const char* name) : into_(into), name_(name), t0_(std::chrono::steady_clock::now()) {}
+    ~SubstageTimer() { into_.add(name_, seconds_since(t0_)); }
     SubstageTimer(const SubstageTimer&) = delete;
     SubstageTimer& operator=(const SubstageTimer&) = delete;
 
@@ -51,7 +47,6 @@ private:
     Substages& into_;
     const char* name_;
     std::chrono::steady_clock::time_point t0_;
-    double c0_;
 };
 
 }  // namespace parode
