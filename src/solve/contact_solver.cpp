@@ -300,7 +300,7 @@ void ContactSolver::build_phase() {
 // contact rows 4 kAhead places on.
 void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
     constexpr int kStreams = 4;
-    constexpr std::size_t kAhead = 2;
+    constexpr std::size_t kAhead = 4;
     BodyRow* hot = hot_.data();
     std::size_t at[kStreams], end[kStreams];
     const std::size_t p0 = layout_.cell_begin(t0), p1 = layout_.cell_begin(t1);
