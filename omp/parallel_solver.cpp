@@ -2,6 +2,7 @@
 #include "parallel_solver.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 
 #include "team.hpp"
@@ -23,20 +24,11 @@ int thread_index() {
 #endif
 }
 
-// Per thread, padded to its own cache line: seconds working and waiting.
-struct alignas(64) Clock {
-    double work = 0, wait = 0;
-};
-
-// A thread waited at the barriers more than half as long as it worked, and
-// long enough to be a descheduled thread rather than a slow wake-up (200 us;
-// a time slice is milliseconds): the threads cost more than they give.
-bool too_much_waiting(const std::vector<Clock>& clocks) {
-    for (const Clock& c : clocks) {
-        if (c.wait > 0.5 * c.work && c.wait > 2e-4) return true;
-    }
-    return false;
-}
+// A thread waited at a barrier longer than it worked on the colour before it,
+// and long enough to be a descheduled thread rather than a slow wake-up or an
+// uneven split (1 ms; a time slice is several): threads cost more than they
+// give.
+bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
 
 }  // namespace
 
@@ -72,7 +64,9 @@ void ParallelContactSolver::split(int team) {
 
 void ParallelContactSolver::sweep(int passes, bool warm) {
     Team& team = Team::instance();
-    const int t = team.sweep_threads(contact_count(), kSweepCrossover);
+    // Only the iterations try threads again on shared cores; the warm start
+    // (one pass, little work) would mostly wait.
+    const int t = warm ? team.threads(contact_count(), kSweepCrossover) : team.sweep_threads(contact_count(), kSweepCrossover);
     if (t <= 1 || passes <= 0) {
         ContactSolver::sweep(passes, warm);
         return;
@@ -81,46 +75,56 @@ void ParallelContactSolver::sweep(int passes, bool warm) {
     team.verdict(sweep_threaded(passes, warm, t));
 }
 
-// The threads relax their ranges colour by colour; each iteration's clocks
-// (barriers of colours 0-6, written between the last two barriers) decide
-// after the last barrier, identically on every thread, whether thread 0 goes
-// on alone. Returns whether it did.
+// The threads relax their ranges colour by colour, a barrier after each
+// colour. Steps (colours of all passes) are numbered; a thread that waited too
+// long at the barrier after step k sets `alone_at` to k + 2 (the least such
+// value wins). After the barrier of step k - 1 every thread sees every value
+// written before it, and values written after it are at least k + 1, so all
+// threads agree whether step k runs alone: from then on thread 0 runs the
+// remaining steps by itself and the others leave. Returns whether it did.
 bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
     const std::size_t stride = static_cast<std::size_t>(team) + 1;
-    std::vector<Clock> seen(static_cast<std::size_t>(team));
-    bool went_alone = false;
-#pragma omp parallel num_threads(team) shared(seen, went_alone)
+    const long steps = static_cast<long>(passes) * kColours;
+    std::atomic<long> alone_at{steps};
+#pragma omp parallel num_threads(team) shared(alone_at)
     {
         const std::size_t me = static_cast<std::size_t>(thread_index());
-        bool alone = false;
-        for (int it = 0; it < passes; ++it) {
-            if (alone) {
-                if (me != 0) break;
-                ContactSolver::sweep(1, warm);
-                continue;
+        for (long k = 0; k < steps; ++k) {
+            const int c = static_cast<int>(k % kColours);
+            if (alone_at.load(std::memory_order_acquire) <= k) {
+                if (me == 0) finish_alone(k, steps, warm);
+                break;
             }
-            Clock mine;
-            for (int c = 0; c < kColours; ++c) {
-                const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
-                const double t0 = now();
-                if (warm) warm_cells(r[me], r[me + 1]);
-                else relax_cells(r[me], r[me + 1]);
-                const double t1 = now();
+            const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
+            const double t0 = now();
+            if (warm) warm_cells(r[me], r[me + 1]);
+            else relax_cells(r[me], r[me + 1]);
+            const double t1 = now();
 #pragma omp barrier
-                if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
+            if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
 #pragma omp master
-                    exchange_after(c);
+                exchange_after(c);
 #pragma omp barrier
-                }
-                mine.work += t1 - t0;
-                mine.wait += now() - t1;
-                if (c == kColours - 2) seen[me] = mine;
             }
-            alone = too_much_waiting(seen);
+            if (descheduled(t1 - t0, now() - t1)) {
+                long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
+                while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
+                }
+            }
         }
-        if (me == 0) went_alone = alone;
     }
-    return went_alone;
+    return alone_at.load() < steps;
+}
+
+// Steps [from, steps) on this thread: the colours of the pass under way, then
+// whole passes.
+void ParallelContactSolver::finish_alone(long from, long steps, bool warm) {
+    for (long k = from; k < steps; ++k) {
+        const int c = static_cast<int>(k % kColours);
+        if (warm) warm_cells(layout().colour_begin(c), layout().colour_end(c));
+        else relax_cells(layout().colour_begin(c), layout().colour_end(c));
+        exchange_after(c);
+    }
 }
 
 }  // namespace parode::omp

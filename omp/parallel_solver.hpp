@@ -4,12 +4,14 @@
 // a colour cut into one contiguous range per thread with equal numbers of
 // contacts (cells are sorted in space, so each thread keeps its bodies in
 // cache; cells of one colour touch disjoint bodies), a barrier after each
-// colour. The threads time their work and their waits: when a thread waits
-// more than half as long as it works (another process holds a core), the rest
-// of the step runs on one thread (omp/team.hpp).
+// colour. The threads time their work and their waits: when a thread waits at
+// a barrier longer than it worked and over a millisecond (another process
+// holds a core and the kernel descheduled a thread), the rest of the step runs
+// on one thread, two colours later (omp/team.hpp).
 // Results are bit for bit those of the serial "pgs" for any thread count.
 // Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
-// above the crossover (README.md); the timing costs two clock reads a colour.
+// above the crossover (README.md); the timing costs three clock reads a colour,
+// and a descheduled thread still costs up to two barriers' wait.
 #pragma once
 #include <vector>
 
@@ -27,6 +29,7 @@ private:
     void sweep(int passes, bool warm) override;
     void split(int team);
     bool sweep_threaded(int passes, bool warm, int team);
+    void finish_alone(long from, long steps, bool warm);
 
     std::vector<std::size_t> ranges_;  // colour-major: first cell of each thread's range, + end
 };
