@@ -335,14 +335,17 @@ void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
     }
 }
 
-void MpiDomain::exchange(int colour, std::array<double, 6>* fc) {
+void MpiDomain::exchange(int colour, const CorrectionView& fc) {
+    using Six = std::array<double, 6>;
     const auto& lists = corr_[static_cast<std::size_t>(colour)];
     std::vector<Bytes> out(nbrs_.size());
     for (std::size_t j = 0; j < nbrs_.size(); ++j) {
-        out[j].reserve(lists[j].size() * (sizeof(std::uint32_t) + sizeof(fc[0])));
+        out[j].reserve(lists[j].size() * (sizeof(std::uint32_t) + sizeof(Six)));
         for (std::uint32_t b : lists[j]) {
             put(out[j], world_->gid(b));
-            put(out[j], fc[b]);
+            Six v;
+            std::copy(fc.of(b), fc.of(b) + 6, v.begin());
+            put(out[j], v);
         }
     }
     std::vector<Bytes> in;
@@ -350,7 +353,8 @@ void MpiDomain::exchange(int colour, std::array<double, 6>* fc) {
     for (const Bytes& b : in) {
         for (std::size_t at = 0; at < b.size();) {
             const auto gid = take<std::uint32_t>(b, at);
-            fc[world_->local_of(gid)] = take<std::array<double, 6>>(b, at);
+            const Six v = take<Six>(b, at);
+            std::copy(v.begin(), v.end(), fc.of(world_->local_of(gid)));
         }
     }
 }

@@ -62,7 +62,7 @@ public:
     }
 
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
-    void exchange(int colour, std::array<double, 6>* fc) override;
+    void exchange(int colour, const CorrectionView& fc) override;
 
     // For tests: the cell map of the last partition and what moved.
     const CellMap& cell_map() const { return map_; }

@@ -20,7 +20,7 @@ constexpr double kMaxCells = 1152921504606846976.0;  // 2^60
 
 constexpr std::size_t kBlock = 4096;  // geoms per partial bound
 
-CellBounds item_bounds(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
+CellBounds item_bounds(const GeomTable& infos, const std::vector<std::uint32_t>& items) {
     const std::size_t n = items.size();
     const std::size_t nblocks = (n + kBlock - 1) / kBlock;
     std::vector<CellBounds> part(nblocks);
@@ -75,7 +75,7 @@ std::uint64_t CellGrid::cell_key(const GeomInfo& g) const {
     return (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
 }
 
-void CellGrid::compute_keys(const std::vector<GeomInfo>& infos,
+void CellGrid::compute_keys(const GeomTable& infos,
                             const std::vector<std::uint32_t>& items) {
     // Plain pointers: a task would copy a referenced vector (firstprivate).
     const std::size_t n = items.size();
@@ -177,7 +177,7 @@ void CellGrid::sort_sparse() {
     ustart_.push_back(static_cast<std::uint32_t>(n));
 }
 
-void CellGrid::fill_entries(const std::vector<GeomInfo>& infos,
+void CellGrid::fill_entries(const GeomTable& infos,
                             const std::vector<std::uint32_t>& items) {
     const std::size_t n = items.size();
     entries_.resize(n);
@@ -195,11 +195,11 @@ void CellGrid::fill_entries(const std::vector<GeomInfo>& infos,
     }
 }
 
-void CellGrid::build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items) {
+void CellGrid::build(const GeomTable& infos, const std::vector<std::uint32_t>& items) {
     build(infos, items, item_bounds(infos, items));
 }
 
-void CellGrid::build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items,
+void CellGrid::build(const GeomTable& infos, const std::vector<std::uint32_t>& items,
                      const CellBounds& bounds) {
     choose_cells(bounds, items.empty());
     compute_keys(infos, items);

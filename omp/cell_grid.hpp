@@ -61,10 +61,15 @@ struct CellBounds {
 
 class CellGrid {
 public:
+    // Where the sorted entries and prims live (slots kSlotEntries, kSlotPrims).
+    void set_scratch(ScratchPool* pool) {
+        entries_.set_pool(pool);
+        prims_.set_pool(pool);
+    }
     // Sort the geoms `items` (indices into `infos`, all finite) into cells.
-    void build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void build(const GeomTable& infos, const std::vector<std::uint32_t>& items);
     // The same, with the items' bounds already known.
-    void build(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items,
+    void build(const GeomTable& infos, const std::vector<std::uint32_t>& items,
                const CellBounds& bounds);
 
     std::size_t size() const { return entries_.size(); }
@@ -93,13 +98,13 @@ private:
                       std::uint32_t& end) const;
     void choose_cells(const CellBounds& bounds, bool empty);
     std::uint64_t cell_key(const GeomInfo& g) const;
-    void compute_keys(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void compute_keys(const GeomTable& infos, const std::vector<std::uint32_t>& items);
     void sort_dense(std::size_t ncells);
     void count_slabs(std::size_t tasks, std::size_t nslabs);
     void scatter_slabs(std::size_t tasks, std::size_t nslabs);
     void sort_slabs(std::size_t nslabs);
     void sort_sparse();
-    void fill_entries(const std::vector<GeomInfo>& infos, const std::vector<std::uint32_t>& items);
+    void fill_entries(const GeomTable& infos, const std::vector<std::uint32_t>& items);
 
     double h_ = 1, inv_h_ = 1;
     double origin_[3] = {0, 0, 0};
@@ -115,8 +120,8 @@ private:
     std::vector<std::uint64_t> ukeys_;     // sparse: occupied keys
     std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
     std::vector<std::uint64_t> keys_;      // per sorted position
-    std::vector<GridEntry> entries_;
-    std::vector<PrimData> prims_;
+    ScratchArray<GridEntry> entries_{nullptr, kSlotEntries};
+    ScratchArray<PrimData> prims_{nullptr, kSlotPrims};
 };
 
 }  // namespace parode::omp

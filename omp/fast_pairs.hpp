@@ -19,7 +19,7 @@ namespace parode::omp {
 struct PrimData {
     dGeomID geom;
     std::uint32_t id;
-    std::uint32_t pad;
+    std::uint32_t flags;  // the geom's GeomFlag bits (geom_info.hpp)
     dReal p[4];  // sphere: centre (p[0..2]) and radius (p[3]); plane: a, b, c, d
 };
 
@@ -89,26 +89,52 @@ inline int plane_sphere(const PrimData& pl, const PrimData& s, dContactGeom& c) 
     return 1;
 }
 
-// Appends the contact of a sphere/sphere or sphere/plane pair to `out` in
-// canonical order (the lower id is dCollide's first argument).
-inline void append_fast_pair(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
-                             int max_contacts, std::vector<ContactRecord>& out) {
-    if (max_contacts < 1 || a.geom == b.geom) return;  // dCollide: nothing, as ODE
+// The contact of a sphere/sphere or sphere/plane pair in canonical order (the
+// lower id is dCollide's first argument), into `out`; false if none.
+inline bool fast_contact(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere, int max_contacts,
+                         ContactRecord& out) {
+    if (max_contacts < 1 || a.geom == b.geom) return false;  // dCollide: nothing, as ODE
     const bool a_first = !(b.id < a.id);  // as ContactBuffer::collide_pair
     const PrimData& first = a_first ? a : b;
     const PrimData& second = a_first ? b : a;
     const bool first_sphere = a_first ? a_sphere : b_sphere;
     const bool second_sphere = a_first ? b_sphere : a_sphere;
-    dContactGeom c;  // every field is written when a contact is returned
-    int n = 0;
+    int n = 0;  // every field of out.geom is written when a contact is returned
     if (first_sphere && second_sphere) {
-        n = sphere_sphere(first, second, c);
+        n = sphere_sphere(first, second, out.geom);
     } else if (first_sphere) {
-        n = sphere_plane(first, second, c);
+        n = sphere_plane(first, second, out.geom);
     } else {
-        n = plane_sphere(first, second, c);
+        n = plane_sphere(first, second, out.geom);
     }
-    if (n == 1) out.push_back(ContactRecord{first.id, second.id, 0, c});
+    out.lo = first.id;
+    out.hi = second.id;
+    out.index = 0;
+    return n == 1;
+}
+
+// Appends the contact of a sphere/sphere or sphere/plane pair to `out`.
+inline void append_fast_pair(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
+                             int max_contacts, std::vector<ContactRecord>& out) {
+    ContactRecord r;
+    if (fast_contact(a, a_sphere, b, b_sphere, max_contacts, r)) out.push_back(r);
+}
+
+// Whether fast_contact finds a contact: the same tests without building it,
+// and without branches (their outcome is close to random in a pile). Both
+// tests are symmetric in their arguments, bit for bit.
+inline bool fast_touch(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere) {
+    if (a_sphere && b_sphere) {
+        dVector3 diff;
+        dSubtractVectors3(diff, a.p, b.p);
+        const dReal d2 = diff[0] * diff[0] + diff[1] * diff[1] + diff[2] * diff[2];
+        const dReal sum = a.p[3] + b.p[3];
+        const bool far = (d2 > sum * sum * REAL(1.0000000001)) & (sum >= 0);
+        return !far & !(dSqrt(d2) > sum);
+    }
+    const PrimData& s = a_sphere ? a : b;
+    const PrimData& pl = a_sphere ? b : a;
+    return pl.p[3] - dCalcVectorDot3(s.p, pl.p) + s.p[3] >= 0;
 }
 
 }  // namespace parode::omp

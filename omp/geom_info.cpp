@@ -45,7 +45,7 @@ std::uint32_t class_flags(dGeomID g, int cls) {
 void read_prim(dGeomID g, std::uint32_t flags, PrimData& p) {
     p.geom = g;
     p.id = geom_id(g);
-    p.pad = 0;
+    p.flags = flags;
     if (flags & kSphere) {
         const dReal* pos = dGeomGetPosition(g);
         for (int k = 0; k < 3; ++k) p.p[k] = pos[k];
@@ -85,12 +85,13 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
     info.category = dGeomGetCategoryBits(g);
     info.collide = dGeomGetCollideBits(g);
     if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
+    info.flags |= pack_bits(info.category, info.collide);
     read_extent(info);
     read_prim(g, info.flags, info.prim);
     return info;
 }
 
-void refresh_stale(std::vector<GeomInfo>& infos) {
+void refresh_stale(GeomTable& infos) {
     for (GeomInfo& info : infos) {
         if (!(info.flags & kStaleAabb)) continue;
         dGeomID g = info.prim.geom;
@@ -105,7 +106,7 @@ void list_space(dSpaceID space, std::vector<dGeomID>& out) {
     for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = dSpaceGetGeom(space, i);
 }
 
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out) {
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
     const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
@@ -120,7 +121,7 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo
 }
 
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
-                                   std::vector<GeomInfo>& out) {
+                                   GeomTable& out) {
     const std::size_t n = static_cast<std::size_t>(dSpaceGetNumGeoms(space));
     geoms.resize(n);
     out.resize(n);

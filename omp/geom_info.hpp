@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fast_pairs.hpp"
+#include "util/scratch_pool.hpp"
 
 namespace parode::omp {
 
@@ -26,7 +27,22 @@ enum GeomFlag : std::uint32_t {
     kCustomBits = 1u << 7,  // category or collide bits differ from all-ones
     kFinite = 1u << 8,      // AABB finite on all six sides
     kStaleAabb = 1u << 9,   // not a primitive: AABB left for the serial refresh
+    kWideBits = 1u << 10,   // category or collide bits beyond what the flags hold
 };
+
+// Category and collide bits below 256 or all ones (ODE's default) ride in the
+// flags' top 16 bits as their low 8 bits, so that the pair filter needs no
+// other memory: for such values, `(a.category & b.collide) != 0` equals the
+// same test on the low 8 bits (all ones keeps a non-zero low byte, and the
+// other side's bits are below 256 or all ones too).
+inline std::uint32_t pack_bits(unsigned long category, unsigned long collide) {
+    const bool fits = (category < 256 || category == ~0ul) && (collide < 256 || collide == ~0ul);
+    if (!fits) return kWideBits;
+    return static_cast<std::uint32_t>(category & 0xff) << 16 | static_cast<std::uint32_t>(collide & 0xff) << 24;
+}
+inline bool packed_bits_pass(std::uint32_t fa, std::uint32_t fb) {
+    return ((fa >> 16) & (fb >> 24) & 0xff) | ((fb >> 16) & (fa >> 24) & 0xff);
+}
 
 struct GeomInfo {
     dReal aabb[6];  // ODE order: min x, max x, min y, max y, min z, max z
@@ -38,6 +54,9 @@ struct GeomInfo {
     PrimData prim;  // geom, id, and sphere/plane parameters
 };
 
+// The geoms of one call, in a scratch pool slot (util/scratch_pool.hpp).
+using GeomTable = ScratchArray<GeomInfo>;
+
 // Read one geom, bringing its AABB up to date (dGeomGetAABB). With
 // `primitives_only`, only primitive geoms are refreshed (safe concurrently:
 // the call writes that geom alone); others get kStaleAabb for the serial
@@ -45,20 +64,20 @@ struct GeomInfo {
 GeomInfo read_geom(dGeomID g, bool primitives_only = false);
 
 // Serially refreshes and re-reads the kStaleAabb entries of `infos`.
-void refresh_stale(std::vector<GeomInfo>& infos);
+void refresh_stale(GeomTable& infos);
 
 // The geoms of a space in ODE's list order (serial: ODE's enumerator is stateful).
 void list_space(dSpaceID space, std::vector<dGeomID>& out);
 
 // read_geom over a list, as OpenMP tasks when called inside a parallel region.
 // Returns the union of all geoms' flags.
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, std::vector<GeomInfo>& out);
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out);
 
 // list_space and read_geoms overlapped: the calling thread walks ODE's list
 // (serial, one cache miss per geom in large spaces) and hands each listed
 // block to a task that reads it while the walk goes on.
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
-                                   std::vector<GeomInfo>& out);
+                                   GeomTable& out);
 
 // ODE's closed AABB overlap test (disjoint only if strictly separated).
 // Evaluated without branches (bitwise or of the six comparisons): the outcome

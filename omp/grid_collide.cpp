@@ -18,7 +18,9 @@
 
 #include "cell_grid.hpp"
 #include "geom_info.hpp"
+#include "grid_pairs.hpp"
 #include "lanes.hpp"
+#include "team.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -28,6 +30,9 @@ namespace parode::omp {
 namespace {
 
 constexpr std::size_t kGridChunk = 256;  // sorted geoms per task in the grid pass
+// Geoms below which a call runs on one thread (measured: README.md, "Threads
+// and small scenes").
+constexpr std::size_t kCollideCrossover = 2000;
 constexpr std::size_t kScanChunk = 512;  // geoms per task in scans against a few geoms
 
 bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
@@ -56,7 +61,7 @@ int default_threads() {
 
 // Extent above which a geom goes to the big list: a few times the typical
 // (90th percentile of a sample) extent, so one outlier cannot coarsen the grid.
-double big_threshold(const std::vector<GeomInfo>& infos) {
+double big_threshold(const GeomTable& infos) {
     std::vector<double> sample;
     const std::size_t stride = std::max<std::size_t>(1, infos.size() / 512);
     for (std::size_t i = 0; i < infos.size(); i += stride) {
@@ -80,7 +85,8 @@ struct CollideEngine::Impl {
     std::vector<dGeomID> list;
     dSpaceID flat_space = nullptr;                   // set_geoms hint
     const std::vector<dGeomID>* flat_geoms = nullptr;
-    std::vector<GeomInfo> infos;
+    ScratchPool own_pool;                            // unless set_scratch gives a shared one
+    GeomTable infos{&own_pool, kSlotGeoms};
     std::vector<std::uint32_t> small, big;
     std::vector<std::uint8_t> bucket;
     struct SplitPart {
@@ -97,19 +103,37 @@ struct CollideEngine::Impl {
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
+    // One thread below the measured crossover or on shared cores (team.hpp).
+    int team_for(dSpaceID space) const {
+        const std::size_t n = static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+        return Team::instance().threads(n, kCollideCrossover) > 1 ? team_size() : 1;
+    }
+    // The pair tasks' wall time in proportion to the threads' time in each part.
+    void split_pairs() {
+        double b = 0, n = 0;
+        for (const Lane& l : lanes) {
+            b += l.broad;
+            n += l.narrow;
+        }
+        times.broad = b + n > 0 ? times.pairs * b / (b + n) : 0.0;
+        times.narrow = times.pairs - times.broad;
+    }
+    FastSource fast_source() const {
+        FastSource f;
+        f.grid = grid.prims();
+        f.big = big_prims.data();
+        f.max_contacts = max_contacts;
+        return f;
+    }
     Lane& lane() { return lanes[static_cast<std::size_t>(thread_index())]; }
 
     void start(int max, int team);
     void emit(Lane& l, std::uint32_t fa, const PrimData& pa, std::uint32_t fb, const PrimData& pb);
-    void consider(Lane& l, const GridEntry& a, const PrimData& pa, const GridEntry& b,
-                  const PrimData& pb);
+    PairInputs pair_inputs() const;
     void read_space(dSpaceID space);
     void split_items();
     void list_split(std::size_t blocks);
     void build_big();
-    void grid_pairs();
-    void grid_pairs_of(Lane& l, std::size_t a);
-    void big_pairs();
     void all_pairs();
     void space_internal(dSpaceID space, bool recurse);
     void pair2(dGeomID g1, dGeomID g2);
@@ -136,21 +160,21 @@ void CollideEngine::Impl::emit(Lane& l, std::uint32_t fa, const PrimData& pa, st
     }
 }
 
-void CollideEngine::Impl::consider(Lane& l, const GridEntry& a, const PrimData& pa,
-                                   const GridEntry& b, const PrimData& pb) {
-    if (!aabb_overlap(a.aabb, b.aabb)) return;
-    if (a.body && a.body == b.body) return;
-    if (((a.flags | b.flags) & kCustomBits) && !body_and_bits_pass(infos[a.info], infos[b.info])) {
-        return;
-    }
-    emit(l, a.flags, pa, b.flags, pb);
+PairInputs CollideEngine::Impl::pair_inputs() const {
+    PairInputs in;
+    in.grid = &grid;
+    in.big = big_entries.data();
+    in.big_prims = big_prims.data();
+    in.nbig = big_entries.size();
+    in.infos = infos.data();
+    in.max_contacts = max_contacts;
+    return in;
 }
 
 void CollideEngine::Impl::read_space(dSpaceID space) {
     const bool flat = space == flat_space && flat_geoms &&
                       flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
-    if (flat) list = *flat_geoms;
-    const std::uint32_t any = flat ? read_geoms(list, infos) : read_space_pipelined(space, list, infos);
+    const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos) : read_space_pipelined(space, list, infos);
     if (any & kStaleAabb) refresh_stale(infos);
     if (any & kUser) use_reference = true;
 }
@@ -219,68 +243,19 @@ void CollideEngine::Impl::build_big() {
     }
 }
 
-// Pairs of sorted geom `a` with later geoms of its cell, the next cell in its
-// row, and the three-cell spans of the four forward rows.
-void CollideEngine::Impl::grid_pairs_of(Lane& l, std::size_t a) {
-    const GridEntry* e = grid.entries();
-    const PrimData* p = grid.prims();
-    const std::uint64_t k = grid.key(a);
-    std::uint32_t b0 = 0, b1 = 0;
-    grid.range(k, k + 1, b0, b1);
-    for (std::uint32_t b = static_cast<std::uint32_t>(a) + 1; b < b1; ++b) consider(l, e[a], p[a], e[b], p[b]);
-    for (int r = 0; r < 4; ++r) {
-        const std::uint64_t c = k + grid.row_offsets()[r];
-        grid.range(c - 1, c + 1, b0, b1);
-        for (std::uint32_t b = b0; b < b1; ++b) consider(l, e[a], p[a], e[b], p[b]);
-    }
-}
-
-// Tasks only (nogroup): the caller's taskgroup waits for them.
-void CollideEngine::Impl::grid_pairs() {
+// The pair search (grid_pairs.hpp) in tasks of kGridChunk sorted geoms, and
+// the big geoms among themselves in one more task.
+void CollideEngine::Impl::all_pairs() {
+    const PairInputs in = pair_inputs();
+    const PairInputs* pin = &in;  // a task would copy the struct itself: fine, but one pointer is less
     const std::size_t n = grid.size();
     const std::size_t chunks = (n + kGridChunk - 1) / kGridChunk;
-#pragma omp taskloop num_tasks(task_count(chunks, 1)) nogroup
-    for (std::size_t c = 0; c < chunks; ++c) {
-        Lane& l = lane();
-        const std::size_t end = std::min(n, (c + 1) * kGridChunk);
-        for (std::size_t a = c * kGridChunk; a < end; ++a) grid_pairs_of(l, a);
-    }
-}
-
-// Every small geom against every big one, and the big ones among themselves.
-// Tasks only: the caller's taskgroup waits for them.
-void CollideEngine::Impl::big_pairs() {
-    if (big_entries.empty()) return;
-    const std::size_t n = grid.size();
-    const std::size_t chunks = (n + kScanChunk - 1) / kScanChunk;
-    const std::size_t nb = big_entries.size();
-#pragma omp taskloop num_tasks(task_count(chunks, 1)) nogroup
-    for (std::size_t c = 0; c < chunks; ++c) {
-        Lane& l = lane();
-        const std::size_t end = std::min(n, (c + 1) * kScanChunk);
-        for (std::size_t a = c * kScanChunk; a < end; ++a) {
-            for (std::size_t j = 0; j < nb; ++j) {
-                consider(l, grid.entries()[a], grid.prims()[a], big_entries[j], big_prims[j]);
-            }
-        }
-    }
-#pragma omp task
-    {
-        Lane& l = lane();
-        for (std::size_t i = 0; i < nb; ++i) {
-            for (std::size_t j = i + 1; j < nb; ++j) {
-                consider(l, big_entries[i], big_prims[i], big_entries[j], big_prims[j]);
-            }
-        }
-    }
-}
-
-// Grid pairs and big pairs as one batch of tasks (no wait between them).
-void CollideEngine::Impl::all_pairs() {
 #pragma omp taskgroup
     {
-        grid_pairs();
-        big_pairs();
+#pragma omp taskloop num_tasks(task_count(chunks, 1)) nogroup firstprivate(pin)
+        for (std::size_t c = 0; c < chunks; ++c) chunk_pairs(*pin, c * kGridChunk, std::min(n, (c + 1) * kGridChunk), lane());
+#pragma omp task firstprivate(pin)
+        big_pairs(*pin, lane());
     }
 }
 
@@ -288,6 +263,7 @@ void CollideEngine::Impl::all_pairs() {
 // the internal pairs of every nested space (as collide_space_reference does).
 void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
     const double t0 = now();
+    for (Lane& l : lanes) store_fast_runs(l, fast_source());  // the grid is about to change
     read_space(space);
     if (use_reference) return;
     const double t1 = now();
@@ -397,7 +373,13 @@ void CollideEngine::Impl::drain_deferred() {
     }
 }
 
-CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) {}
+CollideEngine::CollideEngine() : impl_(std::make_unique<Impl>()) { set_scratch(nullptr); }
+
+void CollideEngine::set_scratch(ScratchPool* pool) {
+    ScratchPool* p = pool ? pool : &impl_->own_pool;
+    impl_->infos.set_pool(p);
+    impl_->grid.set_scratch(p);
+}
 CollideEngine::~CollideEngine() = default;
 
 void CollideEngine::set_threads(int threads) { impl_->threads = std::max(0, threads); }
@@ -410,7 +392,7 @@ const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { retur
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;
-    const int team = m.team_size();
+    const int team = m.team_for(space);
     m.start(max_contacts, team);
     // No dSpaceClean: the parallel read refreshes the primitives' AABBs and the
     // rest serially (refresh_stale); ODE's dirty flags stay set, harmlessly.
@@ -421,16 +403,26 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
         const double t0 = now();
         m.drain_deferred();
         const double t1 = now();
-        if (!m.use_reference) merge_lanes(m.lanes, out, m.merge);
+        if (!m.use_reference) merge_lanes(m.lanes, m.fast_source(), out, m.merge);
         m.times.deferred += t1 - t0;
         m.times.merge += now() - t1;
     }
     if (m.use_reference) collide_space_reference(space, max_contacts, out);
+    m.split_pairs();
+}
+
+void GridBackend::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
+    engine_.collide(space, max_contacts, out);
+    const auto& t = engine_.last_phase_times();
+    times_.add("refresh", t.read);
+    times_.add("broadphase", t.build + t.broad);
+    times_.add("narrowphase", t.narrow + t.deferred);
+    times_.add("merge", t.merge);
 }
 
 void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;
-    const int team = m.team_size();
+    const int team = m.team_for(space);
     m.start(max_contacts, team);
     dSpaceClean(space);
     if (dGeomIsSpace(geom)) dSpaceClean(reinterpret_cast<dSpaceID>(geom));
@@ -439,7 +431,7 @@ void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, Con
     {
         m.pair2(geom, reinterpret_cast<dGeomID>(space));
         m.drain_deferred();
-        if (!m.use_reference) merge_lanes(m.lanes, out, m.merge);
+        if (!m.use_reference) merge_lanes(m.lanes, m.fast_source(), out, m.merge);
     }
     if (m.use_reference) collide2_reference(geom, space, max_contacts, out);
 }

@@ -48,6 +48,9 @@ public:
     // instead of walking ODE's list (nullptr forgets the hint).
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms);
     int threads() const;
+    // Where the per-call geom tables live (slots kSlotGeoms, kSlotEntries,
+    // kSlotPrims of util/scratch_pool.hpp); null: the engine's own pool.
+    void set_scratch(ScratchPool* pool);
 
     // Every contact of `space`, recursing into nested spaces; equals
     // collide_space_reference(space, ...). `out` is overwritten.
@@ -64,6 +67,8 @@ public:
         double pairs = 0;     // broadphase + narrowphase tasks
         double deferred = 0;  // serial pairs (nested spaces, unsafe classes)
         double merge = 0;     // canonical merge
+        // The pair tasks' wall time split by the threads' time in each part.
+        double broad = 0, narrow = 0;
     };
     const PhaseTimes& last_phase_times() const;
 
@@ -80,15 +85,18 @@ class GridBackend final : public CollideBackend {
 public:
     std::string name() const override { return "grid"; }
     SpaceKind space_kind() const override { return SpaceKind::Simple; }
-    void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override {
-        engine_.collide(space, max_contacts, out);
-    }
+    void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override;
     void set_threads(int threads) override { engine_.set_threads(threads); }
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
+    void set_scratch(ScratchPool* pool) override { engine_.set_scratch(pool); }
     const CollideEngine& engine() const { return engine_; }
+    // refresh (reading the geoms), broadphase (split, grid, candidates),
+    // narrowphase (exact tests, dCollide, deferred pairs), merge.
+    const Substages* substages() const override { return &times_; }
 
 private:
     CollideEngine engine_;
+    Substages times_;
 };
 
 }  // namespace parode::omp

@@ -1,15 +1,18 @@
 // Lanes and the canonical merge (see lanes.hpp). The merge is a parallel
 // bucket sort: runs are spread over blocks of the lower-id range (a histogram
 // per lane, a prefix over lanes x blocks, a scatter per lane), each block is
-// sorted by (lo, hi) on its own, then blocks are copied out at their offsets.
-// Only the prefix sums (lanes x blocks entries) are serial.
+// sorted by (lo, hi) on its own, then blocks are written out at their offsets
+// (stored runs copied, grid sphere runs computed in place). Only the prefix
+// sums (lanes x blocks entries) are serial.
 // Trade-off: blocks split the id range evenly, so a scene whose ids crowd in
 // one part of the range puts more work in a few blocks; that costs balance in
 // the sort, never correctness. Pairs reported twice (only possible through
 // unusual collide2 arguments) fall back to sorting the contact records, as the
 // reference does.
 #include "lanes.hpp"
+#include "geom_info.hpp"
 #include "task_split.hpp"
+#include "util/scratch.hpp"
 
 #include <algorithm>
 
@@ -65,8 +68,7 @@ void scatter_runs(const std::vector<Lane>& lanes, const BlockMap& map,
 #pragma omp taskloop grainsize(1) default(none) firstprivate(lane, pos, out, nl, nb, map)
     for (std::size_t l = 0; l < nl; ++l) {
         for (const PairRun& r : lane[l].runs) {
-            out[pos[l * nb + map.of(r.lo)]++] =
-                RunRef{r.lo, r.hi, static_cast<std::uint32_t>(l), r.begin, r.count};
+            out[pos[l * nb + map.of(r.lo)]++] = RunRef(r.lo, r.hi, static_cast<std::uint32_t>(l), r.a, r.b);
         }
     }
 }
@@ -108,9 +110,11 @@ void sort_block(RunRef* first, RunRef* last) {
     std::copy(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n), first);
 }
 
+std::uint32_t run_contacts(const RunRef& r) { return r.a & kStored ? r.b : 1; }
+
 // Sorts each block; records its contact count and whether a pair repeats.
 void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef>& refs,
-                 std::vector<std::size_t>& contacts, int& repeated) {
+                 std::vector<std::size_t>& contacts, std::vector<unsigned char>& rep_of, int& repeated) {
     const std::size_t nb = block_start.size() - 1;
     contacts.assign(nb + 1, 0);
     const std::size_t* start = block_start.data();
@@ -118,14 +122,14 @@ void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef
     std::size_t* count = contacts.data();
     // One flag per block, combined after the taskloop (no task reduction: each
     // task writes only its own entries).
-    std::vector<unsigned char> rep_of(nb, 0);
+    rep_of.assign(nb, 0);
     unsigned char* rep = rep_of.data();
 #pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(start, ref, count, nb, rep)
     for (std::size_t b = 0; b < nb; ++b) {
         sort_block(ref + start[b], ref + start[b + 1]);
         std::size_t c = 0;
         for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
-            c += ref[i].count;
+            c += run_contacts(ref[i]);
             if (i > start[b] && ref[i].lo == ref[i - 1].lo && ref[i].hi == ref[i - 1].hi) rep[b] = 1;
         }
         count[b] = c;
@@ -134,9 +138,20 @@ void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef
     for (unsigned char r : rep_of) repeated = repeated || r;
 }
 
-void copy_blocks(const std::vector<Lane>& lanes, const std::vector<std::size_t>& block_start,
-                 const std::vector<RunRef>& refs, std::vector<std::size_t>& contacts,
-                 ContactBuffer& out) {
+// A run's contacts at `to`; returns the end.
+ContactRecord* write_run(const RunRef& r, const Lane* lane, const FastSource& fast, ContactRecord* to) {
+    if (r.a & kStored) {
+        const ContactRecord* from = lane[r.lane].buf.items().data() + (r.a & ~kStored);
+        return std::copy(from, from + r.b, to);
+    }
+    const PrimData& pa = fast.prim(r.a);
+    const PrimData& pb = fast.prim(r.b);
+    fast_contact(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0, fast.max_contacts, *to);
+    return to + 1;
+}
+
+void copy_blocks(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& block_start,
+                 const std::vector<RunRef>& refs, std::vector<std::size_t>& contacts, ContactBuffer& out) {
     const std::size_t nb = block_start.size() - 1;
     std::size_t acc = 0;
     for (std::size_t b = 0; b < nb; ++b) {
@@ -144,19 +159,17 @@ void copy_blocks(const std::vector<Lane>& lanes, const std::vector<std::size_t>&
         contacts[b] = acc;
         acc += c;
     }
-    out.items().resize(acc);  // no clear first: kept elements need no zeroing
+    scratch_resize(out.items(), acc);  // every element is written below
     ContactRecord* dst = out.items().data();
     const Lane* lane = lanes.data();
     const RunRef* ref = refs.data();
     const std::size_t* start = block_start.data();
     const std::size_t* offset = contacts.data();
-#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, nb)
+    const FastSource* src = &fast;
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, nb, src)
     for (std::size_t b = 0; b < nb; ++b) {
         ContactRecord* to = dst + offset[b];
-        for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
-            const ContactRecord* from = lane[ref[i].lane].buf.items().data() + ref[i].begin;
-            to = std::copy(from, from + ref[i].count, to);
-        }
+        for (std::size_t i = start[b]; i < start[b + 1]; ++i) to = write_run(ref[i], lane, *src, to);
     }
 }
 
@@ -169,7 +182,7 @@ void Lane::fast(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphe
     append_fast_pair(a, a_sphere, b, b_sphere, max_contacts, items);
     if (items.size() == before) return;
     const ContactRecord& c = items[before];
-    runs.push_back(PairRun{c.lo, c.hi, static_cast<std::uint32_t>(before), 1});
+    runs.push_back(PairRun(c.lo, c.hi, static_cast<std::uint32_t>(before) | kStored, 1));
 }
 
 void Lane::generic(dGeomID a, dGeomID b, int max_contacts) {
@@ -177,19 +190,32 @@ void Lane::generic(dGeomID a, dGeomID b, int max_contacts) {
     const int n = buf.collide_pair(a, b, max_contacts);
     if (n <= 0) return;
     const ContactRecord& c = buf.items()[before];
-    runs.push_back(PairRun{c.lo, c.hi, static_cast<std::uint32_t>(before),
-                           static_cast<std::uint32_t>(n)});
+    runs.push_back(PairRun(c.lo, c.hi, static_cast<std::uint32_t>(before) | kStored, static_cast<std::uint32_t>(n)));
 }
 
-void merge_lanes(std::vector<Lane>& lanes, ContactBuffer& out, MergeScratch& m) {
+void store_fast_runs(Lane& lane, const FastSource& fast) {
+    std::vector<ContactRecord>& items = lane.buf.items();
+    for (PairRun& r : lane.runs) {
+        if (r.a & kStored) continue;
+        const PrimData& pa = fast.prim(r.a);
+        const PrimData& pb = fast.prim(r.b);
+        ContactRecord c;
+        fast_contact(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0, fast.max_contacts, c);
+        r.a = static_cast<std::uint32_t>(items.size()) | kStored;
+        r.b = 1;
+        items.push_back(c);
+    }
+}
+
+void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& m) {
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
-    m.refs.resize(m.block_start.back());
+    scratch_resize(m.refs, m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
     int repeated = 0;
-    sort_blocks(m.block_start, m.refs, m.contacts, repeated);
-    copy_blocks(lanes, m.block_start, m.refs, m.contacts, out);
+    sort_blocks(m.block_start, m.refs, m.contacts, m.repeated, repeated);
+    copy_blocks(lanes, fast, m.block_start, m.refs, m.contacts, out);
     if (repeated) out.sort_canonical();
 }
 

@@ -1,95 +1,130 @@
-// Parallel loops of the contact solver (see parallel_solver.hpp).
+// Threaded sweeps of the contact solver (see parallel_solver.hpp).
 #include "parallel_solver.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 
-#include "register.hpp"
+#include "team.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace parode::omp {
 namespace {
-// Below these sizes a parallel region costs more than it saves; results are
-// the same either way.
-[[maybe_unused]] long min_bodies() { return min_parallel(4096); }
-[[maybe_unused]] long min_blocks() { return min_parallel(2048); }
 
-// f(i) for i in [0, n), in contiguous ranges per thread when n >= min_items.
-template <class F>
-void parallel_for(long n, [[maybe_unused]] long min_items, F&& f) {
-#pragma omp parallel for schedule(static) if (n >= min_items)
-    for (long i = 0; i < n; ++i) f(static_cast<std::size_t>(i));
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+int thread_index() {
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
 }
+
+// A thread waited at a barrier longer than it worked on the colour before it,
+// and long enough to be a descheduled thread rather than a slow wake-up or an
+// uneven split (1 ms; a time slice is several): threads cost more than they
+// give.
+bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
+
 }  // namespace
 
-void ParallelContactSolver::cell_keys() {
-    parallel_for(static_cast<long>(keys().size()), min_blocks(), [this](std::size_t k) { cell_key(k); });
+void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
+    Team::instance().begin_step();
+    ContactSolver::step(world, contacts);
+    Team::instance().end_step();
 }
 
-// Sorts halves concurrently and merges them: the keys are unique, so the
-// result equals the serial sort.
-void ParallelContactSolver::sort_keys() {
-    auto& k = keys();
-    const auto mid = k.begin() + static_cast<long>(k.size() / 2);
-    if (static_cast<long>(k.size()) < min_blocks()) {
-        ContactSolver::sort_keys();
-        return;
-    }
-#pragma omp parallel sections
-    {
-#pragma omp section
-        std::sort(k.begin(), mid);
-#pragma omp section
-        std::sort(mid, k.end());
-    }
-    std::inplace_merge(k.begin(), mid, k.end());
-}
-
-void ParallelContactSolver::prepare_bodies() {
-    parallel_for(static_cast<long>(world_body_count()), min_bodies(), [this](std::size_t i) { prepare_body(i); });
-}
-
-void ParallelContactSolver::build_blocks() {
-    const long n = static_cast<long>(blocks());
-#pragma omp parallel for schedule(dynamic, 256) if (n >= min_blocks())
-    for (long s = 0; s < n; ++s) build_block(static_cast<std::size_t>(s));
-}
-
-// `passes` sweeps over the colours; the cells of a colour in contiguous ranges
-// per thread (cells are sorted in space), a barrier after each colour.
-template <class F>
-void ParallelContactSolver::sweep_cells(int passes, F&& per_cell) {
-    const int nc = colours();
-    [[maybe_unused]] const bool big = static_cast<long>(blocks()) >= min_blocks();
-    const bool exchange = exchanging();
-#pragma omp parallel if (big)
-    for (int it = 0; it < passes; ++it) {
-        for (int c = 0; c < nc; ++c) {
-            const long b = static_cast<long>(colour_begin(c)), e = static_cast<long>(colour_end(c));
-#pragma omp for schedule(static)
-            for (long t = b; t < e; ++t) per_cell(static_cast<std::size_t>(t));
-            if (exchange) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
-#pragma omp master
-                exchange_after(c);
-#pragma omp barrier
+// Per colour, one cell range per thread holding about equal numbers of contacts.
+void ParallelContactSolver::split(int team) {
+    const SweepLayout& L = layout();
+    const std::size_t t = static_cast<std::size_t>(team);
+    ranges_.assign(static_cast<std::size_t>(kColours) * (t + 1), 0);
+    for (int c = 0; c < kColours; ++c) {
+        const std::size_t b = L.colour_begin(c), e = L.colour_end(c);
+        const std::size_t p0 = L.cell_begin(b), p1 = L.cell_begin(e);
+        std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * (t + 1);
+        r[0] = b;
+        r[t] = e;
+        for (std::size_t j = 1; j < t; ++j) {
+            const std::size_t target = p0 + (p1 - p0) * j / t;
+            std::size_t lo = r[j - 1], hi = e;  // first cell starting at or after target
+            while (lo < hi) {
+                const std::size_t mid = (lo + hi) / 2;
+                if (L.cell_begin(mid) < target) lo = mid + 1;
+                else hi = mid;
             }
+            r[j] = lo;
         }
     }
 }
 
-void ParallelContactSolver::iterate() {
-    sweep_cells(iterations(), [this](std::size_t t) { relax_cell(t); });
+void ParallelContactSolver::sweep(int passes, bool warm) {
+    Team& team = Team::instance();
+    // Only the iterations try threads again on shared cores; the warm start
+    // (one pass, little work) would mostly wait.
+    const int t = warm ? team.threads(contact_count(), kSweepCrossover) : team.sweep_threads(contact_count(), kSweepCrossover);
+    if (t <= 1 || passes <= 0) {
+        ContactSolver::sweep(passes, warm);
+        return;
+    }
+    split(t);
+    team.verdict(sweep_threaded(passes, warm, t));
 }
 
-void ParallelContactSolver::warm_start() {
-    sweep_cells(1, [this](std::size_t t) { warm_cell(t); });
+// The threads relax their ranges colour by colour, a barrier after each
+// colour. Steps (colours of all passes) are numbered; a thread that waited too
+// long at the barrier after step k sets `alone_at` to k + 2 (the least such
+// value wins). After the barrier of step k - 1 every thread sees every value
+// written before it, and values written after it are at least k + 1, so all
+// threads agree whether step k runs alone: from then on thread 0 runs the
+// remaining steps by itself and the others leave. Returns whether it did.
+bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
+    const std::size_t stride = static_cast<std::size_t>(team) + 1;
+    const long steps = static_cast<long>(passes) * kColours;
+    std::atomic<long> alone_at{steps};
+#pragma omp parallel num_threads(team) shared(alone_at)
+    {
+        const std::size_t me = static_cast<std::size_t>(thread_index());
+        for (long k = 0; k < steps; ++k) {
+            const int c = static_cast<int>(k % kColours);
+            if (alone_at.load(std::memory_order_acquire) <= k) {
+                if (me == 0) finish_alone(k, steps, warm);
+                break;
+            }
+            const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
+            const double t0 = now();
+            if (warm) warm_cells(r[me], r[me + 1]);
+            else relax_cells(r[me], r[me + 1]);
+            const double t1 = now();
+#pragma omp barrier
+            if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
+#pragma omp master
+                exchange_after(c);
+#pragma omp barrier
+            }
+            if (descheduled(t1 - t0, now() - t1)) {
+                long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
+                while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
+                }
+            }
+        }
+    }
+    return alone_at.load() < steps;
 }
 
-void ParallelContactSolver::remember() {
-    parallel_for(static_cast<long>(blocks()), min_blocks(), [this](std::size_t s) { remember_block(s); });
+// Steps [from, steps) on this thread: the colours of the pass under way, then
+// whole passes.
+void ParallelContactSolver::finish_alone(long from, long steps, bool warm) {
+    for (long k = from; k < steps; ++k) {
+        const int c = static_cast<int>(k % kColours);
+        if (warm) warm_cells(layout().colour_begin(c), layout().colour_end(c));
+        else relax_cells(layout().colour_begin(c), layout().colour_end(c));
+        exchange_after(c);
+    }
 }
-
-void ParallelContactSolver::integrate() {
-    parallel_for(static_cast<long>(world_body_count()), min_bodies(), [this](std::size_t i) { integrate_body(i); });
-}
-
 
 }  // namespace parode::omp

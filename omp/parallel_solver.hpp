@@ -1,13 +1,20 @@
-// The "parallel" solver: ContactSolver (src/contact_solver) with its loops over
-// independent items run on OpenMP threads. Relaxation runs in one parallel
-// region: the 8 colours in sequence, the cells of a colour shared among threads
-// in contiguous ranges (cells are sorted in space, so each thread keeps its
-// bodies in cache; cells of one colour touch disjoint bodies), an implicit
-// barrier after each colour. Results are bit for bit those of the
-// serial "pgs" for any thread count.
-// Trade-off: 8 barriers per iteration (160 a step at 20 iterations); worth it
-// above a few hundred contacts, below that "pgs" is as fast.
+// The "parallel" solver: ContactSolver (src/solve/contact_solver) with its
+// sweeps on OpenMP threads; its other loops go through the OpenMP loop runner.
+// A sweep runs in one parallel region: the 8 colours in sequence, the cells of
+// a colour cut into one contiguous range per thread with equal numbers of
+// contacts (cells are sorted in space, so each thread keeps its bodies in
+// cache; cells of one colour touch disjoint bodies), a barrier after each
+// colour. The threads time their work and their waits: when a thread waits at
+// a barrier longer than it worked and over a millisecond (another process
+// holds a core and the kernel descheduled a thread), the rest of the step runs
+// on one thread, two colours later (omp/team.hpp).
+// Results are bit for bit those of the serial "pgs" for any thread count.
+// Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
+// above the crossover (README.md); the timing costs three clock reads a colour,
+// and a descheduled thread still costs up to two barriers' wait.
 #pragma once
+#include <vector>
+
 #include "solve/contact_solver.hpp"
 
 namespace parode::omp {
@@ -16,18 +23,18 @@ class ParallelContactSolver final : public ContactSolver {
 public:
     using ContactSolver::ContactSolver;
     std::string name() const override { return "parallel"; }
+    void step(World& world, const ContactBuffer& contacts) override;
 
 private:
-    template <class F>
-    void sweep_cells(int passes, F&& per_cell);
-    void prepare_bodies() override;
-    void build_blocks() override;
-    void iterate() override;
-    void integrate() override;
-    void remember() override;
-    void warm_start() override;
-    void cell_keys() override;
-    void sort_keys() override;
+    void sweep(int passes, bool warm) override;
+    void split(int team);
+    bool sweep_threaded(int passes, bool warm, int team);
+    void finish_alone(long from, long steps, bool warm);
+
+    std::vector<std::size_t> ranges_;  // colour-major: first cell of each thread's range, + end
 };
+
+// Contacts below which the sweeps run on one thread (measured: README.md).
+constexpr std::size_t kSweepCrossover = 1500;
 
 }  // namespace parode::omp

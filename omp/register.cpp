@@ -3,6 +3,7 @@
 // parallel magnet gather (magnet_pass.hpp).
 #include "register.hpp"
 
+#include <cstdlib>
 #include <memory>
 #ifdef _OPENMP
 #include <omp.h>
@@ -10,13 +11,24 @@
 
 #include "collide/collide.hpp"
 #include "grid_collide.hpp"
+#include "loop_runner.hpp"
 #include "magnet_pass.hpp"
 #include "parallel_solver.hpp"
+#include "team.hpp"
 #include "solve/solver.hpp"
 
 namespace parode::omp {
 
 void register_backends() {
+    // PARODE_MIN_PARALLEL=N: stages run threaded from N items on, whatever
+    // their crossover and however long threads wait (jobs/crossover.py
+    // measures the crossovers with it).
+    if (const char* env = std::getenv("PARODE_MIN_PARALLEL")) {
+        set_min_parallel(std::atol(env));
+        Team::instance().set_adaptive(false);
+    }
+    static const OmpLoopRunner runner;
+    set_loop_runner(&runner);
     BackendRegistry::instance().add("grid", [] { return std::make_unique<GridBackend>(); });
     set_magnet_gather(&gather_magnets_parallel);
     SolverRegistry::instance().add("parallel", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {

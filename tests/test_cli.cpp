@@ -20,6 +20,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -165,6 +166,28 @@ TEST_F(Cli, StagesRunFollowTheScene) {
     const nlohmann::json magnetic = report(kMagnetic);
     EXPECT_EQ(magnetic.at("scene"), "magnetic-tennis");
     EXPECT_EQ(magnetic.at("stages_run").at("forces").at("ran"), true);
+}
+
+TEST_F(Cli, ReportAndSummaryHaveTheSubstagesOfGridAndProjectSolver) {
+    const nlohmann::json j = report(kTennis, " --collide grid --solver parallel");
+    const std::map<std::string, std::vector<std::string>> expect = {
+        {"solve", {"build", "warm_start", "sweeps", "integrate"}},
+        {"collide", {"refresh", "broadphase", "narrowphase", "merge"}}};
+    for (const auto& [stage, subs] : expect) {
+        double sum = 0;
+        for (const std::string& sub : subs) {
+            ASSERT_TRUE(j.at("substages").at(stage).contains(sub)) << stage << "." << sub;
+            const double v = j["substages"][stage][sub].get<double>();
+            EXPECT_GE(v, 0.0) << stage << "." << sub;
+            sum += v;
+        }
+        EXPECT_GT(sum, 0.0) << stage;
+        EXPECT_LE(sum, 1.01 * j["stages"][stage].get<double>() + 1e-4) << stage << ": substages lie within their stage";
+    }
+    EXPECT_TRUE(report(kTennis, " --collide ode-hash --solver ode").at("substages").empty()) << "ODE's space and stepper have no substages";
+    const Result r = parode("run '" + kTennis + "' --set catoms.count=8 --steps 20 --threads 1 --collide grid --solver pgs");
+    EXPECT_NE(r.out.find("\n    sweeps "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\n    narrowphase "), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, SummaryShowsTheReportedHash) {

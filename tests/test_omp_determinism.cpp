@@ -1,6 +1,9 @@
 // Thread-count independence of the OpenMP stages: after 200 steps of tennis and
 // magnetic-tennis (1,000 catoms), the grid backend on 1, 2, 3 and 4 threads
 // (with the parallel magnet pass) gives the state hash of ODE's hash space.
+// When the stages use their threads never changes a result: below the size
+// crossovers, or with the team's cores shared, they run on one thread and
+// give the same bits; and the sharing policy backs off 1, 2, 4 ... 16 steps.
 // Trade-off: whole-pipeline hashes catch any difference anywhere in the step;
 // the contact-level comparisons live in tests/omp/.
 #include <gtest/gtest.h>
@@ -9,6 +12,7 @@
 
 #include "util/hash.hpp"
 #include "register.hpp"
+#include "team.hpp"
 #include "test_support.hpp"
 
 using namespace parode;
@@ -44,6 +48,58 @@ TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
             ASSERT_EQ(0, std::memcmp(&par[k], &serial[k], sizeof(BodyWrench))) << "body " << k << ", " << threads << " threads";
         }
     }
+}
+
+}  // namespace
+
+namespace {
+
+// The parallel solver and grid on `threads` threads; `min_parallel` as set_min_parallel.
+std::string hash_with(const Scene& sc, int steps, int threads, long min_parallel, bool shared) {
+    parode::omp::register_backends();
+    parode::omp::set_threads(threads);
+    RunOptions opt;
+    opt.collide = "grid";
+    opt.solver = "parallel";
+    opt.threads = threads;
+    Pipeline p(sc, opt);
+    parode::omp::set_min_parallel(min_parallel);
+    for (int s = 0; s < steps; ++s) {
+        if (shared) parode::omp::Team::instance().verdict(true);
+        p.step();
+    }
+    p.finish();
+    parode::omp::Team::instance().verdict(false);
+    parode::omp::set_min_parallel(-1);
+    return hex64(p.last().state_hash);
+}
+
+TEST(Thresholds, SerialBelowTheCrossoverAndOnSharedCoresGiveTheThreadedBits) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    const std::string threaded = hash_with(sc, 100, 2, 0, false);
+    EXPECT_EQ(hash_with(sc, 100, 2, 1L << 40, false), threaded) << "every stage below its crossover";
+    EXPECT_EQ(hash_with(sc, 100, 2, 0, true), threaded) << "cores shared: one thread";
+    EXPECT_EQ(hash_with(sc, 100, 1, 0, false), threaded);
+}
+
+TEST(Thresholds, SharedCoresBackOffOneTwoFourUpToSixteenSteps) {
+    parode::omp::Team team;
+    EXPECT_TRUE(team.try_threads());
+    std::vector<int> alone;
+    for (int round = 0; round < 7; ++round) {
+        team.verdict(true);  // this step's try failed
+        team.end_step();
+        int steps = 0;
+        for (team.begin_step(); !team.try_threads(); team.begin_step()) {
+            ++steps;
+            team.end_step();
+        }
+        alone.push_back(steps);
+    }
+    EXPECT_EQ(alone, (std::vector<int>{1, 2, 4, 8, 16, 16, 16}));
+    team.verdict(false);
+    EXPECT_TRUE(team.try_threads());
+    EXPECT_FALSE(team.shared());
 }
 
 }  // namespace

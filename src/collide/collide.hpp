@@ -15,6 +15,8 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
+#include "util/scratch_pool.hpp"
+#include "util/substages.hpp"
 
 namespace parode {
 
@@ -35,6 +37,11 @@ public:
     // flat space), so a backend may read them without walking ODE's list.
     // The pointer must stay valid while the backend collides that space.
     virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
+    // Seconds spent in the backend's substages so far, or null.
+    virtual const Substages* substages() const { return nullptr; }
+    // A pool for the per-call tables, shared with stages that run at other
+    // times of the step (util/scratch_pool.hpp).
+    virtual void set_scratch(ScratchPool* /*pool*/) {}
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

@@ -80,6 +80,47 @@ nlohmann::json spread(const Domain& domain, double v) {
     return {{"min", domain.min(v)}, {"avg", total.value() / domain.ranks()}, {"max", domain.max(v)}};
 }
 
+// Substages reported for a stage whose backend times them, in this order.
+const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
+    static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
+        {Stage::Solve, {"build", "warm_start", "sweeps", "integrate"}},
+        {Stage::Collide, {"refresh", "broadphase", "narrowphase", "merge"}}};
+    return names;
+}
+
+// Collective: stage -> substage -> seconds (the slowest process's).
+nlohmann::json substages_json(const Domain& domain, const Pipeline& p) {
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto& [stage, names] : substage_names()) {
+        const Substages* s = p.substages(stage);
+        if (!s) continue;
+        nlohmann::json j = nlohmann::json::object();
+        for (const char* name : names) {
+            double v = 0;
+            for (const auto& item : s->items()) {
+                if (item.first == name) v = item.second;
+            }
+            j[name] = domain.max(v);
+        }
+        out[stage_name(stage)] = j;
+    }
+    return out;
+}
+
+// The summary lines of a stage's substages, indented under it.
+void print_substages(std::ostream& os, const nlohmann::json& r, Stage stage, double wall) {
+    const char* name = stage_name(stage);
+    if (!r.contains("substages") || !r["substages"].contains(name)) return;
+    for (const auto& [st, names] : substage_names()) {
+        if (st != stage) continue;
+        for (const char* sub : names) {
+            const double v = r["substages"][name].value(sub, 0.0);
+            os << "    " << std::left << std::setw(11) << sub << std::right << std::setw(8) << v << std::setw(7)
+               << std::setprecision(1) << (wall > 0 ? 100.0 * v / wall : 0.0) << "%\n" << std::setprecision(3);
+        }
+    }
+}
+
 }  // namespace
 
 nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo& info) {
@@ -114,6 +155,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["stages"] = stages;
     r["stage_ranks"] = ranks;
     r["stages_run"] = ran;
+    r["substages"] = substages_json(domain, p);
     const auto contacts = domain.sum(static_cast<std::int64_t>(p.totals().contacts));
     // The totals cover the whole run, a restarted one's included.
     r["contacts_per_step"] = p.steps_done() ? static_cast<double>(contacts) / p.steps_done() : 0.0;
@@ -148,6 +190,7 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
            << (info["ran"].get<bool>() ? "yes" : "no") << std::setw(10) << s << std::setw(7) << std::setprecision(1)
            << (wall > 0 ? 100.0 * s / wall : 0.0) << "%  " << std::setprecision(3) << info["why"].get<std::string>()
            << "\n";
+        print_substages(os, r, static_cast<Stage>(k), wall);
     }
     const auto& d = r["diagnostics"];
     os << "  wall " << wall << " s, " << r["ms_per_step"].get<double>() << " ms/step, "

@@ -1,9 +1,12 @@
 // Diagnostics (see diagnostics.hpp).
 #include "run/diagnostics.hpp"
 
+#include <array>
 #include <cmath>
+#include <vector>
 
 #include "util/hash.hpp"
+#include "util/parallel.hpp"
 #include "util/split_mix.hpp"
 
 namespace parode {
@@ -72,10 +75,15 @@ std::uint64_t body_digest(const World& world, std::size_t local) {
 }
 
 std::uint64_t state_hash(const World& world, const Domain& domain) {
-    std::uint64_t sum = 0;
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (!world.ghost(i)) sum += body_digest(world, i);
-    }
+    const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
+    std::vector<std::uint64_t> part(chunks, 0);
+    loops().run(chunks, n, [&](std::size_t c) {
+        for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
+            if (!world.ghost(i)) part[c] += body_digest(world, i);
+        }
+    });
+    std::uint64_t sum = 0;  // modulo 2^64: in any order
+    for (std::uint64_t p : part) sum += p;
     domain.sum_wrapping(&sum, 1);
     return SplitMix64::mix(sum);
 }
@@ -88,13 +96,10 @@ std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
     return out;
 }
 
-Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain) {
-    const Vec3 up = up_direction(world.scene());
-    const Vec3& gv = world.scene().gravity;
-    const double g = std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
-    Sums sums;
-    std::int64_t counts[3] = {0, 0, 0};  // nan, disabled, contacts
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
+// One chunk of bodies into its own partial sums (nan, disabled counts).
+void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Vec3& up, double g, Sums& sums,
+                    std::int64_t* counts) {
+    for (std::size_t i = i0; i < i1; ++i) {
         if (world.ghost(i)) continue;
         dBodyID b = world.body(i);
         if (!finite_state(b)) {
@@ -104,12 +109,43 @@ Diagnostics observe(const World& world, const ContactBuffer& contacts, const Dom
         counts[1] += dBodyIsEnabled(b) ? 0 : 1;
         add_body(b, up, g, sums);
     }
+}
+
+Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain) {
+    const Vec3 up = up_direction(world.scene());
+    const Vec3& gv = world.scene().gravity;
+    const double g = std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
+    const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
+    std::vector<Sums> part(chunks);
+    std::vector<std::array<std::int64_t, 2>> part_counts(chunks, {0, 0});
+    loops().run(chunks, n, [&](std::size_t c) {
+        observe_bodies(world, chunk_begin(n, chunks, c), chunk_begin(n, chunks, c + 1), up, g, part[c], part_counts[c].data());
+    });
+    Sums sums;
+    std::int64_t counts[3] = {0, 0, 0};  // nan, disabled, contacts
+    for (std::size_t c = 0; c < chunks; ++c) {  // exact sums: the same bits in any order
+        for (int k = 0; k < Sums::Count; ++k) sums.s[k].merge(part[c].s[k]);
+        counts[0] += part_counts[c][0];
+        counts[1] += part_counts[c][1];
+    }
+    const auto& items = contacts.items();
+    const std::size_t m = items.size(), cchunks = chunk_count(m, 4096);
+    std::vector<ExactSum> depth(cchunks);
+    std::vector<double> deepest(cchunks, 0.0);
+    std::vector<std::int64_t> touching(cchunks, 0);
+    loops().run(cchunks, m, [&](std::size_t c) {
+        for (std::size_t k = chunk_begin(m, cchunks, c); k < chunk_begin(m, cchunks, c + 1); ++k) {
+            if (world.ignores(items[k])) continue;
+            deepest[c] = std::max(deepest[c], items[k].geom.depth);
+            depth[c].add(items[k].geom.depth);
+            ++touching[c];
+        }
+    });
     double max_depth = 0;
-    for (const ContactRecord& c : contacts.items()) {
-        if (world.ignores(c)) continue;
-        max_depth = std::max(max_depth, c.geom.depth);
-        sums.s[Sums::Depth].add(c.geom.depth);
-        ++counts[2];
+    for (std::size_t c = 0; c < cchunks; ++c) {
+        max_depth = std::max(max_depth, deepest[c]);
+        sums.s[Sums::Depth].merge(depth[c]);
+        counts[2] += touching[c];
     }
     domain.sum(sums.s, Sums::Count);
     domain.sum(counts, 3);

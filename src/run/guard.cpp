@@ -2,6 +2,7 @@
 #include "run/guard.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include "run/pipeline.hpp"
+#include "util/parallel.hpp"
 
 namespace parode {
 namespace {
@@ -140,15 +142,25 @@ nlohmann::json Guard::describe() const {
             {"max_speed", scene_.guard.max_speed}, {"dump", dump_path_}};
 }
 
-void Guard::check_step(const World& world, long step) const {
+void Guard::check_step(const World& world, long step, bool known_finite) const {
     const double vmax = scene_.guard.max_speed;
     std::int64_t bad[2] = {0, 0};  // non-finite, too fast
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (world.ghost(i)) continue;
-        if (!finite_state(world.body(i))) ++bad[0];
-        else if (vmax > 0 && speed(world.body(i)) > vmax) ++bad[1];
+    if (!known_finite || vmax > 0) {
+        const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
+        std::vector<std::array<std::int64_t, 2>> part(chunks, {0, 0});
+        loops().run(chunks, n, [&](std::size_t c) {
+            for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
+                if (world.ghost(i)) continue;
+                if (!finite_state(world.body(i))) ++part[c][0];
+                else if (vmax > 0 && speed(world.body(i)) > vmax) ++part[c][1];
+            }
+        });
+        for (const auto& p : part) {
+            bad[0] += p[0];
+            bad[1] += p[1];
+        }
     }
-    domain_.sum(bad, 2);
+    domain_.sum(bad, 2);  // collective: every process calls it
     if (bad[0]) {
         std::ostringstream os;
         os << bad[0] << " bodies have a non-finite state (first ids:" << first_nan_ids(world, domain_, 10) << ")";

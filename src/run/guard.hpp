@@ -32,7 +32,9 @@ class Guard {
 public:
     Guard(const World& world, const Diagnostics& initial, const Domain& domain, std::string dump_path);
     // Every step: non-finite state and the speed bound. Throws SimulationError.
-    void check_step(const World& world, long step) const;
+    // `known_finite`: the solver wrote every owned body's state and checked it
+    // finite as it did (the scan is then needed only for the speed bound).
+    void check_step(const World& world, long step, bool known_finite = false) const;
     // Observed steps: the energy bound; a passing state becomes the last good one.
     void check_observed(const World& world, const Diagnostics& d, long step);
     // Allowed growth of the total energy (J) after `time` seconds.

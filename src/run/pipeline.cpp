@@ -23,11 +23,13 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     domain_->check_scene(scene, options.collide, options.solver);
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
+    backend_->set_scratch(&scratch_);
     const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());
+    solver_->set_scratch(&scratch_);
     if (!options.restart_path.empty()) restore(options.restart_path, gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
@@ -116,6 +118,12 @@ void Pipeline::write_checkpoint(const std::string& path) const {
     parode::write_checkpoint(path, *domain_, *world_, solver_->warm_impulses(), meta);
 }
 
+const Substages* Pipeline::substages(Stage s) const {
+    if (s == Stage::Collide) return backend_->substages();
+    if (s == Stage::Solve) return solver_->substages();
+    return nullptr;
+}
+
 nlohmann::json Pipeline::checks_result() const {
     return checker_ ? checker_->result(*world_, last_) : nlohmann::json();
 }
@@ -147,7 +155,7 @@ void Pipeline::step() {
     timed(Stage::Solve, [this] { run_solve(); });
     contacts_of_ = ~0ULL;  // bodies moved
     ++steps_;
-    timed(Stage::Observe, [this] { guard_->check_step(*world_, steps_); });
+    timed(Stage::Observe, [this] { guard_->check_step(*world_, steps_, solver_->wrote_finite_state()); });
     if (steps_ % scene_.observe_every == 0) timed(Stage::Observe, [this] { run_observe(); });
     if (snapshot_every_ > 0 && steps_ % snapshot_every_ == 0) timed(Stage::Output, [this] { run_output(); });
 }

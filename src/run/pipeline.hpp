@@ -96,6 +96,8 @@ public:
     // Empty when a restart continues the checkpointed run bit for bit, else why not.
     std::string restart_caveat() const;
     int first_step() const { return first_step_; }
+    // The substage timers of a stage's backend (collide, solve), or null.
+    const Substages* substages(Stage s) const;
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
@@ -114,6 +116,7 @@ private:
     const Scene& scene_;
     std::unique_ptr<Domain> own_domain_;
     Domain* domain_ = nullptr;
+    ScratchPool scratch_;  // shared by the collider and the solver
     std::unique_ptr<CollideBackend> backend_;
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;

@@ -3,19 +3,23 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
+
+#include "util/parallel.hpp"
+#include "util/scratch.hpp"
 
 namespace parode {
 namespace {
+
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+constexpr std::size_t kGrain = 2048;
 
 void cross(const double* a, const double* b, double* out) {
     out[0] = a[1] * b[2] - a[2] * b[1];
     out[1] = a[2] * b[0] - a[0] * b[2];
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
-
-double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double dot6(const double* a, const double* b) { return dot3(a, b) + dot3(a + 3, b + 3); }
 
 void mul33(const double* M, const double* v, double* out) {
     for (int r = 0; r < 3; ++r) out[r] = M[3 * r] * v[0] + M[3 * r + 1] * v[1] + M[3 * r + 2] * v[2];
@@ -44,15 +48,18 @@ void invert33(const double* m, double* out) {
     out[8] = (m[0] * m[4] - m[1] * m[3]) * inv_det;
 }
 
-// Jacobian of one contact row along `dir` at lever arms c1, c2 (ODE's layout).
-void jacobian_row(const double* dir, const double* c1, const double* c2, double* J) {
-    for (int i = 0; i < 3; ++i) {
-        J[i] = dir[i];
-        J[6 + i] = -dir[i];
-    }
-    cross(c1, dir, J + 3);
-    cross(dir, c2, J + 9);
+bool isotropic(const dMass& m) {
+    return m.I[1] == 0 && m.I[2] == 0 && m.I[4] == 0 && m.I[6] == 0 && m.I[8] == 0 && m.I[9] == 0 &&
+           m.I[0] == m.I[5] && m.I[0] == m.I[10];
 }
+
+// One CFM for all three rows: what a sphere row can hold.
+bool uniform_cfm(const dSurfaceParameters& s, double cfm) {
+    return (!(s.mode & dContactSoftCFM) || s.soft_cfm == cfm) && (!(s.mode & dContactSlip1) || s.slip1 == cfm) &&
+           (!(s.mode & dContactSlip2) || s.slip2 == cfm);
+}
+
+bool sphere_or_plane(World::GeomShape s) { return s == World::GeomShape::Sphere || s == World::GeomShape::Plane; }
 
 }  // namespace
 
@@ -60,232 +67,357 @@ void jacobian_row(const double* dir, const double* c1, const double* c2, double*
 // 4 r_max they span at most two cells per axis, of different parity.
 ContactSolver::ContactSolver(const Scene& scene) : scene_(scene), cells_(scene) {}
 
-void ContactSolver::cell_key(std::size_t k) {
-    const ContactRecord& r = contacts_->items()[k];
-    dGeomID owner = world_->is_body_id(r.lo) ? r.geom.g1 : r.geom.g2;  // a dynamic body
-    const std::uint64_t cell = cells_.key(dBodyGetPosition(dGeomGetBody(owner)));
-    keys_[k] = {static_cast<std::uint64_t>(CellSpace::colour(cell)) << 61 | cell, static_cast<std::uint32_t>(k)};
-}
-
-void ContactSolver::cell_keys() {
-    for (std::size_t k = 0; k < keys_.size(); ++k) cell_key(k);
-}
-
-void ContactSolver::sort_keys() { std::sort(keys_.begin(), keys_.end()); }
-
-void ContactSolver::colour(const ContactBuffer& contacts) {
-    const std::size_t n = contacts.size();
-    keys_.resize(n);
-    cell_keys();
-    sort_keys();
-    const std::vector<CellKey>& keys = keys_;
-    slot_contact_.resize(n);
-    cell_start_.clear();
-    colour_start_.assign(9, 0);
-    for (std::size_t s = 0; s < n; ++s) {
-        slot_contact_[s] = keys[s].k;
-        if (s == 0 || keys[s].cell != keys[s - 1].cell) {
-            cell_start_.push_back(s);
-            for (std::size_t c = (keys[s].cell >> 61) + 1; c < 9; ++c) colour_start_[c] = cell_start_.size();
-        }
-    }
-    cell_start_.push_back(n);
+void ContactSolver::set_scratch(ScratchPool* pool) {
+    ScratchPool* p = pool ? pool : &own_pool_;
+    bodies_.set_pool(p);
+    hot_.set_pool(p);
+    rows_.set_pool(p);
 }
 
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
-    Body& B = bodies_[i];
+    BodyData& B = bodies_[i];
     dMass m;
     dBodyGetMass(b, &m);
-    const dReal* R = dBodyGetRotation(b);
-    const double I[9] = {m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8], m.I[9], m.I[10]};
-    double invIb[9];
-    invert33(I, invIb);
-    double Iw[9];
-    rotate_tensor(R, I, Iw);
-    rotate_tensor(R, invIb, B.invI.data());
-    B.invm = 1.0 / m.mass;
     const dReal* f = dBodyGetForce(b);
     const dReal* t = dBodyGetTorque(b);
     const dReal* v = dBodyGetLinearVel(b);
     const dReal* w = dBodyGetAngularVel(b);
-    const double fps = 1.0 / scene_.dt;
+    const dReal* x = dBodyGetPosition(b);
     const bool gravity = dBodyGetGravityMode(b) != 0;
-    double te[3] = {t[0], t[1], t[2]};
-    if (dBodyGetGyroscopicMode(b)) {
-        double L[3], gyro[3];
-        mul33(Iw, w, L);
-        cross(w, L, gyro);
-        for (int k = 0; k < 3; ++k) te[k] -= gyro[k];
+    B.invm = 1.0 / m.mass;
+    double te[3] = {t[0], t[1], t[2]}, a[3];
+    if (isotropic(m)) {  // every sphere (World gives it a sphere's mass); w x (I w) vanishes
+        B.invi = 1.0 / m.I[0];
+        for (int k = 0; k < 3; ++k) a[k] = B.invi * te[k];
+    } else {
+        if (invI_.size() <= i) throw std::logic_error("contact solver: anisotropic inertia on a sphere body");
+        B.invi = 0;
+        const dReal* R = dBodyGetRotation(b);
+        const double I[9] = {m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8], m.I[9], m.I[10]};
+        double invIb[9], Iw[9];
+        invert33(I, invIb);
+        rotate_tensor(R, I, Iw);
+        rotate_tensor(R, invIb, invI_[i].data());
+        if (dBodyGetGyroscopicMode(b)) {
+            double L[3], gyro[3];
+            mul33(Iw, w, L);
+            cross(w, L, gyro);
+            for (int k = 0; k < 3; ++k) te[k] -= gyro[k];
+        }
+        mul33(invI_[i].data(), te, a);
     }
-    double a[3];
-    mul33(B.invI.data(), te, a);
     for (int k = 0; k < 3; ++k) {
+        B.x[k] = x[k];
+        B.v[k] = v[k];
+        B.v[3 + k] = w[k];
         B.acc[k] = B.invm * (f[k] + (gravity ? m.mass * scene_.gravity[k] : 0.0));
         B.acc[3 + k] = a[k];
-        B.tmp[k] = v[k] * fps + B.acc[k];
-        B.tmp[3 + k] = w[k] * fps + a[k];
     }
-    fc_[i].fill(0.0);
+    cell_[i] = cells_.key(B.x);
 }
 
-void ContactSolver::build_block(std::size_t slot) {
-    const ContactRecord& r = contacts_->items()[slot_contact_[slot]];
-    Block& K = blocks_[slot];
-    K.b1 = world_->is_body_id(r.lo) ? static_cast<std::int32_t>(World::local_of_geom(r.geom.g1)) : -1;
-    K.b2 = world_->is_body_id(r.hi) ? static_cast<std::int32_t>(World::local_of_geom(r.geom.g2)) : -1;
-    double n[3] = {r.geom.normal[0], r.geom.normal[1], r.geom.normal[2]};
-    if (K.b1 < 0) {  // as ODE's reversed contact joint: body first, normal flipped
-        std::swap(K.b1, K.b2);
-        for (double& x : n) x = -x;
+// Both geoms spheres, or a sphere and a plane, between bodies of isotropic
+// inertia and with one CFM for all rows: a SphereRow holds the contact exactly.
+bool ContactSolver::sphere_pair(const ContactRecord& r, std::size_t k) const {
+    if (general_only_) return false;
+    const World::GeomShape a = world_->geom_shape(r.lo), b = world_->geom_shape(r.hi);
+    if (!sphere_or_plane(a) || !sphere_or_plane(b) || (a == World::GeomShape::Plane && b == World::GeomShape::Plane)) {
+        return false;
     }
-    const dSurfaceParameters& s = world_->surface(world_->material_of(r.lo), world_->material_of(r.hi));
+    if (bodies_[owner_[k]].invi == 0 || (other_[k] != kNone && bodies_[other_[k]].invi == 0)) return false;
+    return uniform_cfm(world_->surface(world_->material_of(r.lo), world_->material_of(r.hi)), scene_.solver.cfm);
+}
+
+void ContactSolver::classify(std::size_t k) {
+    const ContactRecord& r = contacts_->items()[k];
+    owner_[k] = world_->local_of(r.lo);  // lo is a body: static geoms' ids follow all bodies'
+    other_[k] = world_->is_body_id(r.hi) ? world_->local_of(r.hi) : kNone;
+    block_of_[k] = all_rows_ || sphere_pair(r, k) ? kNone : 0;
+}
+
+// Every contact a sphere row: all bodies spheres (isotropic: World gives them
+// a sphere's mass), all static geoms planes, one CFM per material pair.
+bool ContactSolver::only_sphere_rows() const {
+    if (general_only_ || !all_spheres_ || !world_->scene().statics.empty()) return false;
+    const std::size_t m = world_->scene().materials.size();
+    for (std::size_t a = 0; a < m; ++a) {
+        for (std::size_t b = 0; b < m; ++b) {
+            if (!uniform_cfm(world_->surface(static_cast<int>(a), static_cast<int>(b)), scene_.solver.cfm)) return false;
+        }
+    }
+    return true;
+}
+
+void ContactSolver::fill_body_rows() {
+    const auto& order = layout_.order();
+    hot_.resize(order.size());
+    for_ranges(order.size(), kGrain, [&](std::size_t s0, std::size_t s1) {
+        for (std::size_t s = s0; s < s1; ++s) {
+            BodyRow& H = hot_[s];
+            const BodyData& B = bodies_[order[s]];
+            std::fill(H.fc, H.fc + 6, 0.0);
+            H.invm = B.invm;
+            H.invi = B.invi;
+        }
+    });
+}
+
+// Each contact's index into last step's impulses (both in canonical order),
+// chunk by chunk from a binary search for the chunk's first contact.
+void ContactSolver::match_previous() {
+    const auto& items = contacts_->items();
+    scratch_assign(warm_, items.size(), kNone);
+    if (!scene_.solver.warm_start || previous_.empty()) return;
+    auto before = [](const WarmImpulse& m, const ContactRecord& r) {
+        return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
+    };
+    for_ranges(items.size(), kGrain, [&](std::size_t k0, std::size_t k1) {
+        if (k0 == k1) return;
+        std::size_t p = static_cast<std::size_t>(std::lower_bound(previous_.begin(), previous_.end(), items[k0], before) - previous_.begin());
+        for (std::size_t k = k0; k < k1 && p < previous_.size(); ++k) {
+            const ContactRecord& r = items[k];
+            while (p < previous_.size() && before(previous_[p], r)) ++p;
+            if (p < previous_.size() && previous_[p].lo == r.lo && previous_[p].hi == r.hi && previous_[p].index == r.index) {
+                warm_[k] = static_cast<std::uint32_t>(p);
+            }
+        }
+    });
+}
+
+ContactFrame ContactSolver::frame(const ContactRecord& r, std::uint32_t k) const {
+    ContactFrame f;
+    const BodyData& B1 = bodies_[owner_[k]];
+    f.b1 = static_cast<std::int32_t>(layout_.slot()[owner_[k]]);
+    f.b2 = other_[k] == kNone ? -1 : static_cast<std::int32_t>(layout_.slot()[other_[k]]);
+    f.depth = r.geom.depth;
+    for (int i = 0; i < 3; ++i) {
+        f.n[i] = r.geom.normal[i];
+        f.c1[i] = r.geom.pos[i] - B1.x[i];
+        f.c2[i] = other_[k] == kNone ? 0.0 : r.geom.pos[i] - bodies_[other_[k]].x[i];
+    }
+    return f;
+}
+
+const double* ContactSolver::inv_inertia(std::uint32_t local, double* diag) const {
+    const BodyData& B = bodies_[local];
+    if (B.invi == 0) return invI_[local].data();
+    std::fill(diag, diag + 9, 0.0);
+    diag[0] = diag[4] = diag[8] = B.invi;
+    return diag;
+}
+
+void ContactSolver::build_row(std::size_t k) {
+    const std::size_t p = layout_.position(k);
+    const ContactRecord& r = contacts_->items()[k];
+    const ContactFrame f = frame(r, k);
     const SolverSpec& sv = scene_.solver;
     const double fps = 1.0 / scene_.dt;
-    const dReal* x1 = dBodyGetPosition(world_->body(static_cast<std::size_t>(K.b1)));
-    double c1[3], c2[3] = {0, 0, 0};
-    for (int i = 0; i < 3; ++i) c1[i] = r.geom.pos[i] - x1[i];
-    if (K.b2 >= 0) {
-        const dReal* x2 = dBodyGetPosition(world_->body(static_cast<std::size_t>(K.b2)));
-        for (int i = 0; i < 3; ++i) c2[i] = r.geom.pos[i] - x2[i];
+    const std::uint32_t locals[2] = {owner_[k], other_[k]};
+    double tmp[2][6], diag[2][9];
+    RowInputs in{};
+    for (int j = 0; j < 2 && locals[j] != kNone; ++j) {
+        const BodyData& B = bodies_[locals[j]];
+        for (int i = 0; i < 6; ++i) tmp[j][i] = B.v[i] * fps + B.acc[i];
+        in.tmp[j] = tmp[j];
+        in.vel[j] = B.v;
+        in.body[j] = &hot_[layout_.slot()[locals[j]]];
+        in.invI[j] = block_of_[k] == kNone ? nullptr : inv_inertia(locals[j], diag[j]);
     }
-    K.mu = s.mu;
-    K.rows = s.mu > 0 ? 3 : 1;
-    double c[3] = {0, 0, 0}, cfm[3] = {sv.cfm, sv.cfm, sv.cfm};
-    jacobian_row(n, c1, c2, K.J[0]);
-    const double erp = (s.mode & dContactSoftERP) ? s.soft_erp : sv.erp;
-    const double depth = std::max(r.geom.depth - sv.contact_surface_layer, 0.0);
-    c[0] = std::min(fps * erp * depth, sv.contact_max_correcting_vel);
-    if ((s.mode & dContactBounce) && s.bounce_vel >= 0) {
-        dBodyID b1 = world_->body(static_cast<std::size_t>(K.b1));
-        double out = dot3(K.J[0] + 3, dBodyGetAngularVel(b1)) + dot3(n, dBodyGetLinearVel(b1));
-        if (K.b2 >= 0) {
-            dBodyID b2 = world_->body(static_cast<std::size_t>(K.b2));
-            out += dot3(K.J[0] + 9, dBodyGetAngularVel(b2)) - dot3(n, dBodyGetLinearVel(b2));
-        }
-        if (-out > s.bounce_vel) c[0] = std::max(c[0], s.bounce * -out);
+    in.surface = &world_->surface(world_->material_of(r.lo), world_->material_of(r.hi));
+    in.fps = fps;
+    in.erp = sv.erp;
+    in.cfm = sv.cfm;
+    in.surface_layer = sv.contact_surface_layer;
+    in.max_correcting_vel = sv.contact_max_correcting_vel;
+    in.sor_w = sv.sor_w;
+    double* lambda = nullptr;
+    SphereRow& K = rows_[p];
+    if (block_of_[k] == kNone) {
+        build_sphere_row(f, in, K);
+        lambda = K.lambda;
+    } else {
+        Block& G = blocks_[block_of_[k]];
+        build_block(f, in, G);
+        K.b1 = -1 - static_cast<std::int32_t>(block_of_[k]);
+        K.mu = G.mu;
+        lambda = G.lambda;
     }
-    if (s.mode & dContactSoftCFM) cfm[0] = s.soft_cfm;
-    if (K.rows == 3) {
-        dVector3 nn = {n[0], n[1], n[2], 0}, t1, t2;
-        dPlaneSpace(nn, t1, t2);
-        jacobian_row(t1, c1, c2, K.J[1]);
-        jacobian_row(t2, c1, c2, K.J[2]);
-        if (s.mode & dContactSlip1) cfm[1] = s.slip1;
-        if (s.mode & dContactSlip2) cfm[2] = s.slip2;
-    }
-    const Body& B1 = bodies_[static_cast<std::size_t>(K.b1)];
-    const Body* B2 = K.b2 >= 0 ? &bodies_[static_cast<std::size_t>(K.b2)] : nullptr;
-    for (int row = 0; row < K.rows; ++row) {
-        double* J = K.J[row];
-        double* iMJ = K.iMJ[row];
-        for (int i = 0; i < 3; ++i) iMJ[i] = B1.invm * J[i];
-        mul33(B1.invI.data(), J + 3, iMJ + 3);
-        double rhs = c[row] * fps - dot6(J, B1.tmp.data());
-        double sum = dot6(iMJ, J);
-        if (B2) {
-            for (int i = 0; i < 3; ++i) iMJ[6 + i] = B2->invm * J[6 + i];
-            mul33(B2->invI.data(), J + 9, iMJ + 9);
-            rhs -= dot6(J + 6, B2->tmp.data());
-            sum += dot6(iMJ + 6, J + 6);
-        }
-        const double cf = cfm[row] * fps;
-        const double Ad = sv.sor_w / (sum + cf);
-        for (int i = 0; i < 12; ++i) J[i] *= Ad;
-        K.rhs[row] = rhs * Ad;
-        K.cfm[row] = cf * Ad;
-        K.lambda[row] = 0;
-    }
-    const std::int64_t w = warm_[slot_contact_[slot]];
-    if (w >= 0 && scene_.solver.warm_start) {
-        for (int row = 0; row < K.rows; ++row) K.lambda[row] = previous_[static_cast<std::size_t>(w)].lambda[row];
+    if (warm_[k] != kNone) {
+        const int rows = in.surface->mu > 0 ? 3 : 1;
+        for (int row = 0; row < rows; ++row) lambda[row] = previous_[warm_[k]].lambda[row];
     }
 }
 
-void ContactSolver::warm_block(std::size_t k) {
-    const Block& K = blocks_[k];
-    double* f1 = fc_[static_cast<std::size_t>(K.b1)].data();
-    double* f2 = K.b2 >= 0 ? fc_[static_cast<std::size_t>(K.b2)].data() : nullptr;
-    for (int row = 0; row < K.rows; ++row) {
-        const double l = K.lambda[row];
-        if (l == 0) continue;
-        for (int i = 0; i < 6; ++i) f1[i] += l * K.iMJ[row][i];
-        if (f2) {
-            for (int i = 0; i < 6; ++i) f2[i] += l * K.iMJ[row][6 + i];
+void ContactSolver::build_phase() {
+    const std::size_t nb = world_->body_count(), nc = contacts_->size();
+    bodies_.resize(nb);
+    cell_.resize(nb);
+    if (shapes_of_ != world_->generation()) {
+        shapes_of_ = world_->generation();
+        all_spheres_ = std::all_of(world_->gids().begin(), world_->gids().end(),
+                                   [this](std::uint32_t g) { return world_->geom_shape(g) == World::GeomShape::Sphere; });
+    }
+    invI_.resize(all_spheres_ ? 0 : nb);
+    all_rows_ = only_sphere_rows();
+    for_ranges(nb, kGrain, [&](std::size_t i0, std::size_t i1) {
+        for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
+    });
+    scratch_resize(owner_, nc);
+    scratch_resize(other_, nc);
+    scratch_resize(block_of_, nc);
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) classify(k);
+    });
+    std::uint32_t general = 0;  // general blocks in canonical order (rare: a serial count)
+    for (std::uint32_t& b : block_of_) {
+        if (b != kNone) b = general++;
+    }
+    blocks_.resize(general);
+    LayoutInput li;
+    li.bodies = nb;
+    li.cell = cell_.data();
+    li.gid = world_->gids().data();
+    li.contacts = nc;
+    li.owner = owner_.data();
+    layout_.build(li);
+    fill_body_rows();
+    match_previous();
+    rows_.resize(nc);
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) build_row(k);
+    });
+    if (exchange_) plan_exchange();
+}
+
+// Cells [t0, t1) of one colour as kStreams runs of whole cells with about equal
+// numbers of contacts. Each round takes the next contact of every stream and
+// relaxes them together, one per SIMD lane (contacts of different cells
+// of a colour share no body, so this is exactly relaxing the cells one after
+// the other, and each body still sees its contacts in canonical order); the
+// pairs are independent, so the processor also overlaps one with the next.
+// The body rows of a stream's contact kAhead places on are fetched early, its
+// contact rows 4 kAhead places on.
+void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
+    constexpr int kStreams = 4;
+    constexpr std::size_t kAhead = 4;
+    BodyRow* hot = hot_.data();
+    std::size_t at[kStreams], end[kStreams];
+    const std::size_t p0 = layout_.cell_begin(t0), p1 = layout_.cell_begin(t1);
+    std::size_t t = t0;
+    for (int s = 0; s < kStreams; ++s) {
+        at[s] = layout_.cell_begin(t);
+        const std::size_t target = p0 + (p1 - p0) * static_cast<std::size_t>(s + 1) / kStreams;
+        while (t < t1 && layout_.cell_begin(t + 1) <= target) ++t;
+        if (s == kStreams - 1) t = t1;
+        end[s] = layout_.cell_begin(t);
+    }
+    for (bool busy = true; busy;) {
+        busy = false;
+        SphereRow* pack[kStreams];
+        int held = 0;
+        for (int s = 0; s < kStreams; ++s) {
+            if (at[s] == end[s]) continue;
+            busy = true;
+            const std::size_t p = at[s]++;
+            if (p + kAhead < end[s]) {
+                const SphereRow& A = rows_[p + kAhead];
+                if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
+                if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
+            }
+            if (p + 4 * kAhead < end[s]) {
+                const char* row = reinterpret_cast<const char*>(&rows_[p + 4 * kAhead]);
+                for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);
+            }
+            SphereRow& K = rows_[p];
+            if (K.b1 < 0) {
+                relax(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
+                continue;
+            }
+            pack[held++] = &K;
+        }
+        if (held == 4) relax_four(pack, hot);
+        else if (held >= 2) relax_lanes<detail::Pair, 2>(pack, hot);
+        if (held == 3) relax_lanes<double, 1>(pack + 2, hot);
+        if (held == 1) relax_lanes<double, 1>(pack, hot);
+    }
+}
+
+void ContactSolver::warm_cells(std::size_t t0, std::size_t t1) {
+    BodyRow* hot = hot_.data();
+    for (std::size_t p = layout_.cell_begin(t0); p < layout_.cell_begin(t1); ++p) {
+        const SphereRow& K = rows_[p];
+        if (K.b1 >= 0) apply_impulses(K, hot);
+        else apply_impulses(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
+    }
+}
+
+void ContactSolver::sweep(int passes, bool warm) {
+    for (int it = 0; it < passes; ++it) {
+        for (int c = 0; c < kColours; ++c) {
+            if (warm) warm_cells(layout_.colour_begin(c), layout_.colour_end(c));
+            else relax_cells(layout_.colour_begin(c), layout_.colour_end(c));
+            exchange_after(c);
         }
     }
 }
 
-void ContactSolver::match_previous(const ContactBuffer& contacts) {
-    const auto& items = contacts.items();
-    warm_.assign(items.size(), -1);
-    std::size_t p = 0;
-    for (std::size_t k = 0; k < items.size() && p < previous_.size(); ++k) {
-        const ContactRecord& r = items[k];
-        auto before = [&r](const WarmImpulse& m) {
-            return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
+// The bodies each colour's cells touch, each once per colour (a body is
+// touched by at most one cell of a colour).
+void ContactSolver::plan_exchange() {
+    touched_.resize(kColours);
+    stamp_.assign(hot_.size(), 0);
+    const auto& order = layout_.order();
+    for (int c = 0; c < kColours; ++c) {
+        auto& list = touched_[static_cast<std::size_t>(c)];
+        list.clear();
+        const auto mark = static_cast<std::uint32_t>(c + 1);
+        auto add = [&](std::int32_t s) {
+            if (s < 0 || stamp_[static_cast<std::size_t>(s)] == mark) return;
+            stamp_[static_cast<std::size_t>(s)] = mark;
+            list.push_back(order[static_cast<std::size_t>(s)]);
         };
-        while (p < previous_.size() && before(previous_[p])) ++p;
-        if (p < previous_.size() && previous_[p].lo == r.lo && previous_[p].hi == r.hi && previous_[p].index == r.index) {
-            warm_[k] = static_cast<std::int64_t>(p);
+        for (std::size_t p = layout_.cell_begin(layout_.colour_begin(c)); p < layout_.cell_begin(layout_.colour_end(c)); ++p) {
+            const SphereRow& K = rows_[p];
+            if (K.b1 >= 0) {
+                add(K.b1);
+                add(K.b2);
+            } else {
+                const Block& G = blocks_[static_cast<std::size_t>(-1 - K.b1)];
+                add(G.b1);
+                add(G.b2);
+            }
         }
     }
+    exchange_->plan(touched_);
 }
 
-void ContactSolver::remember_block(std::size_t s) {
-    const ContactRecord& r = contacts_->items()[slot_contact_[s]];
-    WarmImpulse& m = previous_[slot_contact_[s]];
+void ContactSolver::remember(std::size_t k) {
+    const ContactRecord& r = contacts_->items()[k];
+    const SphereRow& K = rows_[layout_.position(k)];
+    const double* lambda = K.b1 >= 0 ? K.lambda : blocks_[static_cast<std::size_t>(-1 - K.b1)].lambda;
+    const int rows = K.mu > 0 ? 3 : 1;
+    WarmImpulse& m = previous_[k];
     m.lo = r.lo;
     m.hi = r.hi;
     m.index = r.index;
-    for (int row = 0; row < 3; ++row) m.lambda[row] = row < blocks_[s].rows ? blocks_[s].lambda[row] : 0.0;
-}
-
-void ContactSolver::remember() {
-    for (std::size_t s = 0; s < blocks_.size(); ++s) remember_block(s);
-}
-
-void ContactSolver::relax(std::size_t k) {
-    Block& K = blocks_[k];
-    double* f1 = fc_[static_cast<std::size_t>(K.b1)].data();
-    double* f2 = K.b2 >= 0 ? fc_[static_cast<std::size_t>(K.b2)].data() : nullptr;
-    for (int row = 0; row < K.rows; ++row) {
-        const double* J = K.J[row];
-        double delta = K.rhs[row] - K.lambda[row] * K.cfm[row] - dot6(J, f1);
-        if (f2) delta -= dot6(J + 6, f2);
-        double hi = HUGE_VAL, lo = 0;
-        if (row > 0) {
-            hi = std::fabs(K.mu * K.lambda[0]);
-            lo = -hi;
-        }
-        const double old = K.lambda[row];
-        const double nl = std::min(std::max(old + delta, lo), hi);
-        delta = nl - old;
-        K.lambda[row] = nl;
-        const double* iMJ = K.iMJ[row];
-        for (int i = 0; i < 6; ++i) f1[i] += delta * iMJ[i];
-        if (f2) {
-            for (int i = 0; i < 6; ++i) f2[i] += delta * iMJ[6 + i];
-        }
-    }
+    for (int row = 0; row < 3; ++row) m.lambda[row] = row < rows ? lambda[row] : 0.0;
 }
 
 // The explicit update of ODE's steppers (dxStepBody, no damping, no finite
 // rotation): v += h (invM fe + fc); x += h v; q += h/2 (0, w) q, normalised.
-void ContactSolver::integrate_body(std::size_t i) {
-    if (world_->ghost(i)) return;  // its owner integrates it
-    Body& B = bodies_[i];
+// Velocities, forces and torques go straight to ODE (each touches its own
+// body only); the pose waits for commit (setting it moves the geom in its space).
+// Returns whether the new state is finite.
+bool ContactSolver::integrate_body(std::size_t i) {
+    if (world_->ghost(i)) return true;  // its owner integrates it
+    BodyData& B = bodies_[i];
     dBodyID b = world_->body(i);
     const double h = scene_.dt;
-    const dReal* x = dBodyGetPosition(b);
+    const double* fc = hot_[layout_.slot()[i]].fc;
     const dReal* q = dBodyGetQuaternion(b);
-    const dReal* v0 = dBodyGetLinearVel(b);
-    const dReal* w0 = dBodyGetAngularVel(b);
     double v[6];
-    for (int k = 0; k < 3; ++k) {
-        v[k] = v0[k] + h * (B.acc[k] + fc_[i][k]);
-        v[3 + k] = w0[k] + h * (B.acc[3 + k] + fc_[i][3 + k]);
-    }
+    for (int k = 0; k < 6; ++k) v[k] = B.v[k] + h * (B.acc[k] + fc[k]);
     const double* w = v + 3;
     double dq[4] = {0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3]), 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2]),
                     0.5 * (-w[0] * q[3] + w[1] * q[0] + w[2] * q[1]), 0.5 * (w[0] * q[2] - w[1] * q[1] + w[2] * q[0])};
@@ -295,99 +427,55 @@ void ContactSolver::integrate_body(std::size_t i) {
         len += nq[k] * nq[k];
     }
     len = 1.0 / std::sqrt(len);
-    for (int k = 0; k < 3; ++k) B.next[k] = x[k] + h * v[k];
-    for (int k = 0; k < 4; ++k) B.next[3 + k] = nq[k] * len;
-    for (int k = 0; k < 6; ++k) B.tmp[k] = v[k];  // tmp is free now: keep the new velocity
-}
-
-void ContactSolver::prepare_bodies() {
-    for (std::size_t i = 0; i < bodies_.size(); ++i) prepare_body(i);
-}
-
-void ContactSolver::build_blocks() {
-    for (std::size_t s = 0; s < blocks_.size(); ++s) build_block(s);
-}
-
-void ContactSolver::relax_cell(std::size_t t) {
-    for (std::size_t k = cell_start_[t]; k < cell_start_[t + 1]; ++k) relax(k);
-}
-
-void ContactSolver::warm_cell(std::size_t t) {
-    for (std::size_t k = cell_start_[t]; k < cell_start_[t + 1]; ++k) warm_block(k);
-}
-
-void ContactSolver::iterate() {
-    for (int it = 0; it < iterations(); ++it) {
-        for (int c = 0; c < colours(); ++c) {
-            for (std::size_t t = colour_begin(c); t < colour_end(c); ++t) relax_cell(t);
-            exchange_after(c);
-        }
-    }
-}
-
-void ContactSolver::warm_start() {
-    for (int c = 0; c < colours(); ++c) {
-        for (std::size_t t = colour_begin(c); t < colour_end(c); ++t) warm_cell(t);
-        exchange_after(c);
-    }
-}
-
-// The bodies each colour's cells touch, each once per colour (a body is
-// touched by at most one cell of a colour).
-void ContactSolver::plan_exchange() {
-    touched_.resize(static_cast<std::size_t>(colours()));
-    stamp_.assign(bodies_.size(), 0);
-    for (int c = 0; c < colours(); ++c) {
-        auto& list = touched_[static_cast<std::size_t>(c)];
-        list.clear();
-        const auto mark = static_cast<std::uint32_t>(c + 1);
-        auto add = [&](std::int32_t b) {
-            if (b < 0 || stamp_[static_cast<std::size_t>(b)] == mark) return;
-            stamp_[static_cast<std::size_t>(b)] = mark;
-            list.push_back(static_cast<std::uint32_t>(b));
-        };
-        for (std::size_t k = cell_start_[colour_begin(c)]; k < cell_start_[colour_end(c)]; ++k) {
-            add(blocks_[k].b1);
-            add(blocks_[k].b2);
-        }
-    }
-    exchange_->plan(touched_);
-}
-
-void ContactSolver::integrate() {
-    for (std::size_t i = 0; i < bodies_.size(); ++i) integrate_body(i);
+    for (int k = 0; k < 3; ++k) B.x[k] += h * v[k];
+    for (int k = 0; k < 4; ++k) B.acc[k] = nq[k] * len;
+    for (int k = 0; k < 6; ++k) B.v[k] = v[k];
+    dBodySetLinearVel(b, v[0], v[1], v[2]);
+    dBodySetAngularVel(b, v[3], v[4], v[5]);
+    dBodySetForce(b, 0, 0, 0);
+    dBodySetTorque(b, 0, 0, 0);
+    double sum = 0;  // finite iff the sum of every component times zero is zero
+    for (int k = 0; k < 3; ++k) sum += B.x[k] * 0.0;
+    for (int k = 0; k < 4; ++k) sum += B.acc[k] * 0.0;
+    for (int k = 0; k < 6; ++k) sum += v[k] * 0.0;
+    return sum == 0;
 }
 
 void ContactSolver::commit(World& world) const {
     for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: the setters move geoms in the space
-        if (world.ghost(i)) continue;
-        const Body& B = bodies_[i];
-        dBodyID b = world.body(i);
-        dBodySetLinearVel(b, B.tmp[0], B.tmp[1], B.tmp[2]);
-        dBodySetAngularVel(b, B.tmp[3], B.tmp[4], B.tmp[5]);
-        world.set_pose(i, B.next.data(), B.next.data() + 3);
-        dBodySetForce(b, 0, 0, 0);
-        dBodySetTorque(b, 0, 0, 0);
+        if (!world.ghost(i)) world.set_pose(i, bodies_[i].x, bodies_[i].acc);
     }
 }
 
 void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     world_ = &world;
     contacts_ = &contacts;
-    const std::size_t nb = world.body_count();
-    bodies_.resize(nb);
-    fc_.resize(nb);
-    colour(contacts);
-    match_previous(contacts);
-    blocks_.resize(contacts.size());
-    prepare_bodies();
-    build_blocks();
-    if (exchange_) plan_exchange();
-    if (scene_.solver.warm_start) warm_start();
-    iterate();
-    previous_.resize(contacts.size());
-    remember();
-    integrate();
+    {
+        SubstageTimer t(times_, "build");
+        build_phase();
+    }
+    {
+        SubstageTimer t(times_, "warm_start");
+        if (scene_.solver.warm_start) sweep(1, true);
+    }
+    {
+        SubstageTimer t(times_, "sweeps");
+        sweep(iterations(), false);
+    }
+    SubstageTimer t(times_, "integrate");
+    const std::size_t nc = contacts.size();
+    scratch_resize(previous_, nc);  // last step's impulses were read by build_row
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) remember(k);
+    });
+    const std::size_t nb = bodies_.size(), chunks = chunk_count(nb, kGrain);
+    std::vector<unsigned char> finite(chunks, 1);
+    loops().run(chunks, nb, [&](std::size_t c) {
+        bool ok = true;
+        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) ok &= integrate_body(i);
+        finite[c] = ok;
+    });
+    finite_ = std::all_of(finite.begin(), finite.end(), [](unsigned char f) { return f != 0; });
     commit(world);
 }
 

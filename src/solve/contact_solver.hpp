@@ -1,18 +1,20 @@
 // The project's contact solver: projected Gauss-Seidel with ODE QuickStep's
-// contact model (the rows of ODE's contact joint: normal with ERP/CFM, surface
-// layer, max correcting velocity and bounce; two friction rows bounded by
-// mu * normal force as with dContactApprox1; slip as CFM; SOR factor w), ordered
-// by space: each contact belongs to the cell (edge 4 r_max) of its lower-id
-// body and is relaxed in canonical order within that cell; cells take one of 8
-// colours by the parity of their coordinates, and two cells of one colour never
-// touch the same body, so they can be relaxed in any order, or in parallel,
-// with the same result. Every iteration sweeps the colours in order. Each
-// contact starts from the impulses its pair had last step (warm start, matched
-// by canonical key), which QuickStep does not do. The bodies are then advanced
-// with the explicit update of ODE's steppers (v += h (invM fe + fc), x += h v,
-// q += h/2 (0, w) q), computed per body and written back through ODE's setters.
-// Each phase is a loop over independent items (bodies, contacts or cells) in a
-// virtual function; omp/ overrides only those loops.
+// contact model (solve/contact_rows.hpp: the rows of ODE's contact joint,
+// SOR factor w), ordered by space: each contact belongs to the cell (edge
+// 4 r_max) of its lower-id body and is relaxed in canonical order within that
+// cell; cells take one of 8 colours by the parity of their coordinates, and
+// two cells of one colour never touch the same body, so they can be relaxed in
+// any order, or in parallel, with the same result. Every iteration sweeps the
+// colours in order. Each contact starts from the impulses its pair had last
+// step (warm start, matched by canonical key), which QuickStep does not do.
+// The bodies are then advanced with the explicit update of ODE's steppers
+// (v += h (invM fe + fc), x += h v, q += h/2 (0, w) q), computed per body and
+// written back through ODE's setters.
+// Layout for the sweeps (solve/sweep_layout.hpp): bodies in cell order, one
+// cache line each (velocity corrections, inverse mass and inertia); contacts
+// in sweep order, sphere-sphere and sphere-plane ones as 160-byte rows, others
+// as general blocks. Every loop goes through util/parallel.hpp; omp/ runs the
+// sweeps themselves (one parallel region, a barrier per colour).
 // Trade-off: a fixed spatial order instead of QuickStep's canonical order with
 // random reshuffles: results independent of the thread count, and with warm
 // starting at least QuickStep's accuracy per iteration on the classic scenes.
@@ -24,7 +26,11 @@
 
 #include "collide/contacts.hpp"
 #include "domain/cells.hpp"
+#include "solve/contact_rows.hpp"
 #include "solve/solver.hpp"
+#include "solve/sweep_layout.hpp"
+#include "util/scratch_pool.hpp"
+#include "util/substages.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -36,12 +42,24 @@ struct WarmImpulse {
     double lambda[3];
 };
 
+// The solver's velocity corrections (inv(M) J^T lambda, linear then angular)
+// of local body `local`: six doubles, stored in the solver's body order.
+class CorrectionView {
+public:
+    CorrectionView(BodyRow* rows, const std::uint32_t* slot) : rows_(rows), slot_(slot) {}
+    double* of(std::uint32_t local) const { return rows_[slot_[local]].fc; }
+
+private:
+    BodyRow* rows_;
+    const std::uint32_t* slot_;
+};
+
 // Keeps copies of shared bodies consistent during the solve of a distributed
-// run: after each colour of each sweep, the velocity corrections (inv(M) J^T
-// lambda, 6 doubles a body) of the bodies that this process's cells of that
-// colour touched go to the processes holding copies of them, and theirs come
-// in. Cells of one colour touch disjoint bodies, so every body's corrections
-// are summed in the same order as on one process.
+// run: after each colour of each sweep, the velocity corrections of the bodies
+// that this process's cells of that colour touched go to the processes holding
+// copies of them, and theirs come in. Cells of one colour touch disjoint
+// bodies, so every body's corrections are summed in the same order as on one
+// process.
 class CorrectionExchange {
 public:
     virtual ~CorrectionExchange() = default;
@@ -49,7 +67,7 @@ public:
     // process's cells of each colour touch (each listed once per colour).
     virtual void plan(const std::vector<std::vector<std::uint32_t>>& touched) = 0;
     // After colour `c`: send this process's corrections, take the others'.
-    virtual void exchange(int colour, std::array<double, 6>* fc) = 0;
+    virtual void exchange(int colour, const CorrectionView& fc) = 0;
 };
 
 class ContactSolver : public SolverBackend {
@@ -58,95 +76,85 @@ public:
     std::string name() const override { return "pgs"; }
     bool uses_contact_joints() const override { return false; }
     void step(World& world, const ContactBuffer& contacts) override;
-
-    int colours() const { return static_cast<int>(colour_start_.size()) - 1; }
-    std::size_t blocks() const { return blocks_.size(); }
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
-    const CellSpace& cells() const { return cells_; }
+    void set_scratch(ScratchPool* pool) override;
+    const Substages* substages() const override { return &times_; }
+    bool wrote_finite_state() const override { return finite_; }
+
+    static constexpr int kColours = SweepLayout::kColours;
+    // Contacts of the last step as compact sphere rows and as general blocks.
+    std::size_t sphere_rows() const { return contacts_ ? contacts_->size() - blocks_.size() : 0; }
+    std::size_t general_blocks() const { return blocks_.size(); }
+    // Every contact through the general block (for tests comparing the two).
+    void set_general_only(bool on) { general_only_ = on; }
 
 protected:
-    struct Body {
-        double invm = 0;
-        std::array<double, 9> invI{};   // world frame
-        std::array<double, 6> tmp{};    // v/h + invM fe (linear, angular)
-        std::array<double, 6> acc{};    // invM fe: external acceleration
-        std::array<double, 7> next{};   // integrated position and quaternion
-    };
-    struct Block {
-        std::int32_t b1 = -1, b2 = -1;  // b2 = -1: static geom
-        int rows = 1;
-        double mu = 0;
-        double J[3][12];    // scaled by Ad
-        double iMJ[3][12];  // inv(M) J^T, unscaled
-        double rhs[3], cfm[3], lambda[3];
-    };
-
-    // One item of each phase (independent of every other item of the phase).
-    void prepare_body(std::size_t i);
-    void build_block(std::size_t slot);
-    void relax(std::size_t k);
-    void warm_block(std::size_t k);
-    void integrate_body(std::size_t i);
-    void remember_block(std::size_t s);
-
-    // The loops; the parallel solver overrides these.
-    virtual void prepare_bodies();
-    virtual void build_blocks();
-    virtual void iterate();
-    virtual void warm_start();
-    virtual void integrate();
-    virtual void remember();
-
-    // Contact k's cell (colour in the top 3 bits, then the CellSpace key);
-    // (cell, contact) pairs are unique, so their sorted order is too.
-    struct CellKey {
-        std::uint64_t cell;
-        std::uint32_t k;
-        bool operator<(const CellKey& o) const { return cell != o.cell ? cell < o.cell : k < o.k; }
-    };
-    void cell_key(std::size_t k);
-    virtual void cell_keys();
-    virtual void sort_keys();
-    std::vector<CellKey>& keys() { return keys_; }
-
-    std::size_t world_body_count() const { return bodies_.size(); }
-    // Cells (tasks) of colour c are [colour_start_[c], colour_start_[c+1]); cell t
-    // holds block slots [cell_start_[t], cell_start_[t+1]).
-    std::size_t colour_begin(int c) const { return colour_start_[static_cast<std::size_t>(c)]; }
-    std::size_t colour_end(int c) const { return colour_start_[static_cast<std::size_t>(c) + 1]; }
-    void relax_cell(std::size_t t);
-    void warm_cell(std::size_t t);
+    // Relaxes (or, with `warm`, applies the warm-start impulses of) cells
+    // [t0, t1) of one colour.
+    void relax_cells(std::size_t t0, std::size_t t1);
+    void warm_cells(std::size_t t0, std::size_t t1);
+    // `passes` sweeps over the colours; after each colour, exchange_after.
+    // omp/ overrides this with its threaded sweep.
+    virtual void sweep(int passes, bool warm);
+    const SweepLayout& layout() const { return layout_; }
     int iterations() const { return scene_.solver.iterations; }
+    std::size_t contact_count() const { return contacts_ ? contacts_->size() : 0; }
     // After colour c of a sweep (serially, between the colours).
     void exchange_after(int c) {
-        if (exchange_) exchange_->exchange(c, fc_.data());
+        if (exchange_) exchange_->exchange(c, CorrectionView(hot_.data(), layout_.slot().data()));
     }
     bool exchanging() const { return exchange_ != nullptr; }
-    bool ghost(std::size_t i) const { return world_->ghost(i); }
+    Substages& times() { return times_; }
 
 private:
-    void colour(const ContactBuffer& contacts);
+    // Per local body, what build and integrate need (the sweeps use BodyRow).
+    struct BodyData {
+        double x[3];     // position; after integrate, the new one
+        double v[6];     // velocity; after integrate, the new one
+        double acc[6];   // invM fe; after integrate, acc[0..3] holds the new quaternion
+        double invm, invi;  // invi = 0: anisotropic, see invI_
+    };
+    void prepare_body(std::size_t i);
+    void classify(std::size_t k);
+    void fill_body_rows();
+    void match_previous();
+    void build_row(std::size_t k);
     void plan_exchange();
-    void match_previous(const ContactBuffer& contacts);
+    bool integrate_body(std::size_t i);
+    void remember(std::size_t k);
     void commit(World& world) const;
+    void build_phase();
+    ContactFrame frame(const ContactRecord& r, std::uint32_t k) const;
+    bool sphere_pair(const ContactRecord& r, std::size_t k) const;
+    bool only_sphere_rows() const;
+    const double* inv_inertia(std::uint32_t local, double* diag) const;
 
     const Scene& scene_;
+    CellSpace cells_;
     const World* world_ = nullptr;
     const ContactBuffer* contacts_ = nullptr;
-    std::vector<Body> bodies_;
-    std::vector<std::array<double, 6>> fc_;      // inv(M) J^T lambda per body
-    std::vector<std::uint32_t> slot_contact_;    // block slot -> contact index
-    std::vector<CellKey> keys_;
+    bool general_only_ = false;
+    ScratchPool own_pool_;                           // unless set_scratch gives a shared one
+    ScratchArray<BodyData> bodies_{&own_pool_, kSlotBodies};  // per local body
+    std::vector<std::array<double, 9>> invI_;        // per local body, unless all are spheres
+    std::uint64_t shapes_of_ = ~0ULL;                // world generation all_spheres_ is for
+    bool all_spheres_ = true;
+    bool all_rows_ = false;                          // this step: every contact a sphere row
+    std::vector<std::uint64_t> cell_;                // per local body
+    std::vector<std::uint32_t> owner_, other_;       // per contact: local bodies of lo and hi (or none)
+    std::vector<std::uint32_t> block_of_;            // per contact: index into blocks_, or kNone
+    SweepLayout layout_;
+    ScratchArray<BodyRow> hot_{&own_pool_, kSlotBodyRows};  // per body slot
+    ScratchArray<SphereRow> rows_{&own_pool_, kSlotRows};   // per position; general: b1 = -1 - block index
     std::vector<Block> blocks_;
-    std::vector<std::size_t> colour_start_;     // colour -> first cell
-    std::vector<std::size_t> cell_start_;       // cell -> first block slot
-    CellSpace cells_;
-    std::vector<WarmImpulse> previous_;          // last step's impulses, canonical order
-    std::vector<std::int64_t> warm_;             // contact -> index into previous_, or -1
+    std::vector<WarmImpulse> previous_;              // last step's impulses, canonical order
+    std::vector<std::uint32_t> warm_;                // contact -> index into previous_, or kNone
     CorrectionExchange* exchange_ = nullptr;
     std::vector<std::vector<std::uint32_t>> touched_;  // per colour, for the exchange
     std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
+    Substages times_;
+    bool finite_ = false;  // every owned body's new state was finite
 };
 
 }  // namespace parode

@@ -15,6 +15,8 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
+#include "util/scratch_pool.hpp"
+#include "util/substages.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -36,6 +38,14 @@ public:
     virtual std::vector<WarmImpulse>* warm_impulses() { return nullptr; }
     // Where a distributed run exchanges corrections during the solve.
     virtual void set_exchange(CorrectionExchange* /*exchange*/) {}
+    // Seconds spent in the backend's substages so far, or null.
+    virtual const Substages* substages() const { return nullptr; }
+    // True when the last step wrote every owned body's state and found it
+    // finite as it did (the guard then skips its own scan).
+    virtual bool wrote_finite_state() const { return false; }
+    // A pool for the per-step tables, shared with stages that run at other
+    // times of the step (util/scratch_pool.hpp).
+    virtual void set_scratch(ScratchPool* /*pool*/) {}
 };
 
 // Factories take the scene and the run's thread count.

@@ -82,6 +82,9 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     dWorldSetAutoDisableAngularThreshold(world_, s.auto_disable_angular);
     dWorldSetAutoDisableSteps(world_, s.auto_disable_steps);
     dWorldSetAutoDisableTime(world_, 0);
+    // Without auto-disable no body averages its velocity: no sample buffers
+    // (two allocations a body, 64 bytes of ODE's 1 KB per body).
+    if (!s.auto_disable) dWorldSetAutoDisableAverageSamplesCount(world_, 0);
     const std::size_t n = gids ? gids->size() : global_;
     map_.reset(global_, n);
     bodies_.reserve(n);
@@ -226,6 +229,24 @@ int World::material_of(std::uint32_t geom_id) const {
         return geom_id < scene_.bodies.size() ? scene_.bodies[geom_id].material : scene_.catoms.proto.material;
     }
     return static_material_[geom_id - global_];
+}
+
+World::GeomShape World::geom_shape(std::uint32_t geom_id) const {
+    const Shape* s = nullptr;
+    if (geom_id < global_) {
+        s = geom_id < scene_.bodies.size() ? &scene_.bodies[geom_id].shape : &scene_.catoms.proto.shape;
+    } else if (geom_id - global_ < scene_.statics.size()) {
+        s = &scene_.statics[geom_id - global_].shape;
+    } else {
+        return GeomShape::Plane;
+    }
+    switch (s->kind) {
+        case ShapeKind::Sphere: return GeomShape::Sphere;
+        case ShapeKind::Box: return GeomShape::Box;
+        case ShapeKind::Capsule: return GeomShape::Capsule;
+        case ShapeKind::Cylinder: break;
+    }
+    return GeomShape::Cylinder;
 }
 
 void World::build_statics() {

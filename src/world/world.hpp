@@ -66,6 +66,7 @@ public:
     dBodyID body(std::size_t local) const { return bodies_[local]; }
     const std::vector<dBodyID>& bodies() const { return bodies_; }
     std::uint32_t gid(std::size_t local) const { return gids_[local]; }
+    const std::vector<std::uint32_t>& gids() const { return gids_; }
     bool ghost(std::size_t local) const { return ghost_[local] != 0; }
     // Local index of a gid, or IdMap::kNone when it is not held here.
     std::uint32_t local_of(std::uint32_t gid) const { return map_.find(gid); }
@@ -87,6 +88,10 @@ public:
     // Every geom of space(): local body geoms in local order, then statics.
     const std::vector<dGeomID>& geoms() const { return geoms_; }
     int material_of(std::uint32_t geom_id) const;
+    // The shape of a geom by id (a body's, a static geom's or a plane), from
+    // the scene: no access to ODE's geom.
+    enum class GeomShape { Sphere, Box, Capsule, Cylinder, Plane };
+    GeomShape geom_shape(std::uint32_t geom_id) const;
 
     // A new body `gid` built from the scene (its initial state unless `state`
     // is given); returns its local index.

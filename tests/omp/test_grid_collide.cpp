@@ -308,6 +308,7 @@ TEST(LibraryApi, BenchReportsReferenceDigest) {
 }  // namespace parode::test
 
 int main(int argc, char** argv) {
+    parode::omp::set_min_parallel(0);  // the threaded paths at every size (the results are the same)
     dInitODE2(0);
     dAllocateODEDataForThread(dAllocateMaskAll);
     testing::InitGoogleTest(&argc, argv);

@@ -1,0 +1,129 @@
+// Broadphase candidates and narrowphase of the grid backend (see grid_pairs.hpp).
+#include "grid_pairs.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+namespace parode::omp {
+namespace {
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
+    return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
+}
+
+// ODE's collideAABBs filter on two entries; bits beyond the flags from infos.
+bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
+    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos[a.info], in.infos[b.info])
+                                                        : packed_bits_pass(a.flags, b.flags);
+    return aabb_overlap(a.aabb, b.aabb) & !(a.body && a.body == b.body) & bits;
+}
+
+// Candidates of sorted geom a: appended at out[n], n advanced past the passing ones.
+std::size_t collect(const PairInputs& in, std::size_t a, Candidate* out, std::size_t n) {
+    const CellGrid& g = *in.grid;
+    const GridEntry* e = g.entries();
+    const std::uint64_t k = g.key(a);
+    const auto ua = static_cast<std::uint32_t>(a);
+    std::uint32_t b0 = 0, b1 = 0;
+    g.range(k, k + 1, b0, b1);
+    for (std::uint32_t b = ua + 1; b < b1; ++b) {
+        out[n] = Candidate(ua, b);
+        n += passes(in, e[a], e[b]);
+    }
+    for (int r = 0; r < 4; ++r) {
+        const std::uint64_t c = k + g.row_offsets()[r];
+        g.range(c - 1, c + 1, b0, b1);
+        for (std::uint32_t b = b0; b < b1; ++b) {
+            out[n] = Candidate(ua, b);
+            n += passes(in, e[a], e[b]);
+        }
+    }
+    for (std::size_t j = 0; j < in.nbig; ++j) {
+        out[n] = Candidate(ua, static_cast<std::uint32_t>(j) | kBigList);
+        n += passes(in, e[a], in.big[j]);
+    }
+    return n;
+}
+
+// Most candidates a geom can have: the spans collect walks.
+std::size_t bound(const PairInputs& in, std::size_t a) {
+    const CellGrid& g = *in.grid;
+    const std::uint64_t k = g.key(a);
+    std::uint32_t b0 = 0, b1 = 0;
+    g.range(k, k + 1, b0, b1);
+    std::size_t m = b1 - a - 1 + in.nbig;
+    for (int r = 0; r < 4; ++r) {
+        const std::uint64_t c = k + g.row_offsets()[r];
+        g.range(c - 1, c + 1, b0, b1);
+        m += b1 - b0;
+    }
+    return m;
+}
+
+void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vector<Candidate>& cand) {
+    std::size_t n = 0;
+    for (std::size_t a = a0; a < a1; ++a) {
+        const std::size_t need = n + bound(in, a);
+        if (need > cand.size()) cand.resize(std::max(need, 2 * cand.size()));
+        n = collect(in, a, cand.data(), n);
+    }
+    cand.resize(n);
+}
+
+// Sphere pairs: a run when they touch (written, kept only if so); then the
+// rest: primitive pairs through dCollide, others deferred.
+void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane& l) {
+    const PrimData* grid = in.grid->prims();
+    std::size_t n = l.runs.size();
+    l.runs.resize(n + cand.size());
+    l.others.clear();
+    for (const Candidate& c : cand) {
+        const PrimData& pa = grid[c.a];
+        const PrimData& pb = c.b & kBigList ? in.big_prims[c.b & ~kBigList] : grid[c.b];
+        if (!fast_pair(pa.flags, pb.flags)) {
+            l.others.push_back(c);
+            continue;
+        }
+        const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) &
+                           fast_touch(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0);
+        l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), c.a, c.b);
+        n += touch;
+    }
+    l.runs.resize(n);
+    for (const Candidate& c : l.others) {
+        const PrimData& pa = grid[c.a];
+        const PrimData& pb = c.b & kBigList ? in.big_prims[c.b & ~kBigList] : grid[c.b];
+        if (pa.flags & pb.flags & kSafe) l.generic(pa.geom, pb.geom, in.max_contacts);
+        else l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
+    }
+}
+
+}  // namespace
+
+void chunk_pairs(const PairInputs& in, std::size_t a0, std::size_t a1, Lane& l) {
+    const double t0 = now();
+    broadphase(in, a0, a1, l.candidates);
+    const double t1 = now();
+    narrowphase(in, l.candidates, l);
+    l.broad += t1 - t0;
+    l.narrow += now() - t1;
+}
+
+void big_pairs(const PairInputs& in, Lane& l) {
+    for (std::size_t i = 0; i < in.nbig; ++i) {
+        for (std::size_t j = i + 1; j < in.nbig; ++j) {
+            const GridEntry& a = in.big[i];
+            const GridEntry& b = in.big[j];
+            if (!passes(in, a, b)) continue;
+            const PrimData& pa = in.big_prims[i];
+            const PrimData& pb = in.big_prims[j];
+            if (fast_pair(a.flags, b.flags)) l.fast(pa, (a.flags & kSphere) != 0, pb, (b.flags & kSphere) != 0, in.max_contacts);
+            else if (a.flags & b.flags & kSafe) l.generic(pa.geom, pb.geom, in.max_contacts);
+            else l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
+        }
+    }
+}
+
+}  // namespace parode::omp

@@ -1,0 +1,37 @@
+// The pair search of the grid backend, one chunk of sorted geoms at a time:
+// broadphase, then narrowphase. The broadphase tests each geom against the
+// later geoms of its cell, the half stencil of forward cells and the big list
+// (ODE's collideAABBs filter: closed AABB overlap, same body, category and
+// collide bits from the grid entry alone), writing every candidate and
+// advancing past it only if it passes: no branch on an outcome that is close
+// to random in a pile. The narrowphase runs over the surviving candidates:
+// sphere-sphere and sphere-plane pairs through the exact contact test (the
+// contact itself is computed by the merge, lanes.hpp), other primitive pairs
+// through dCollide, the rest set aside for the serial pass.
+// Trade-off: a candidate buffer per thread (8 bytes a candidate, a chunk's
+// worth) in exchange for two tight loops that each time their own share.
+#pragma once
+#include <cstddef>
+
+#include "cell_grid.hpp"
+#include "geom_info.hpp"
+#include "lanes.hpp"
+
+namespace parode::omp {
+
+struct PairInputs {
+    const CellGrid* grid = nullptr;
+    const GridEntry* big = nullptr;       // big list: entries and their prims
+    const PrimData* big_prims = nullptr;
+    std::size_t nbig = 0;
+    const GeomInfo* infos = nullptr;      // for bits beyond the entries' flags
+    int max_contacts = 1;
+};
+
+// Pairs of the sorted grid geoms [a0, a1) with later grid geoms and with the
+// big list, into `lane`, timing its broadphase and narrowphase.
+void chunk_pairs(const PairInputs& in, std::size_t a0, std::size_t a1, Lane& lane);
+// Pairs among the big geoms, into `lane` (stored runs).
+void big_pairs(const PairInputs& in, Lane& lane);
+
+}  // namespace parode::omp

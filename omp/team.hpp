@@ -1,0 +1,51 @@
+// When the OpenMP stages use their threads. Two rules, neither of which can
+// change a result (every stage gives the same bits on any thread count):
+// - Size: a loop or stage below its measured crossover runs on one thread
+//   (a parallel region costs a few microseconds, more than it saves on small
+//   scenes; the crossovers are in README.md, "Threads and small scenes").
+// - Sharing: when another process holds one of our cores, every barrier waits
+//   for a thread the kernel has descheduled. The threaded sweeps of the
+//   contact solver time their threads' work and waits at every colour
+//   barrier; when a thread waits over a millisecond and longer than it worked,
+//   the rest of the step's sweeps run on one thread, and so do all other
+//   stages from then on. Only the solver's iterations try threads again, on a
+//   later step (after 1, 2, 4, ... 16 steps while the sharing lasts); when a
+//   try succeeds every stage has its threads back.
+// Trade-off: a shared machine loses about two barriers' wait per try, instead
+// of a descheduled thread's time slice at every barrier of every stage; a
+// machine that frees up waits up to 16 steps to get its threads back.
+#pragma once
+#include <cstddef>
+
+namespace parode::omp {
+
+class Team {
+public:
+    static Team& instance();
+    // Threads for a loop of `items` items whose crossover is `crossover` items
+    // (one while the cores are shared).
+    int threads(std::size_t items, std::size_t crossover) const;
+    // The same for the solver's sweeps, which try threads again now and then.
+    int sweep_threads(std::size_t items, std::size_t crossover) const;
+    int max_threads() const;
+    // Sharing: whether this step may try threads; the sweep's verdict.
+    bool try_threads() const { return !shared_ || wait_ == 0; }
+    void verdict(bool shared);
+    bool shared() const { return shared_; }
+    // Off: verdicts are ignored, threads always tried (to measure crossovers).
+    void set_adaptive(bool on) { adaptive_ = on; }
+    // The solver's step begins and ends (a step run alone counts down the wait).
+    void begin_step() { alone_ = !try_threads(); }
+    void end_step() {
+        if (alone_ && wait_ > 0) --wait_;
+    }
+
+private:
+    bool adaptive_ = true;
+    bool shared_ = false;
+    bool alone_ = false;  // this step runs on one thread
+    int wait_ = 0;        // steps to run alone before the next try
+    int backoff_ = 1;     // the wait after the next failed try
+};
+
+}  // namespace parode::omp

@@ -1,0 +1,267 @@
+// The rows of one contact as the contact solver relaxes them, in two forms.
+// SphereRow, for sphere-sphere and sphere-plane contacts between bodies of
+// isotropic inertia: the contact point lies on the line of the centres, so the
+// normal row has no angular part and each friction row's angular part is the
+// lever length times (tangent x normal) = -t2 for t1 and t1 for t2. The row
+// keeps the normal (the tangents follow from it, tangent_frame), the two
+// lever lengths, the effective masses (SOR factor over J inv(M) J^T + CFM:
+// one for the normal row, one for both friction rows, whose J inv(M) J^T are
+// equal for unit tangents), right-hand sides and impulses: 128 bytes, two
+// cache lines, against 650 for the general Block, which keeps J and
+// inv(M) J^T as 3 x 12 doubles for any other contact. The masses come from
+// the bodies' BodyRow (inverse mass and inverse inertia beside the velocity
+// corrections, one cache line a body).
+// Trade-off: two code paths for one contact model, and the tangents
+// recomputed at every relaxation (a square root per contact) to halve what a
+// sweep reads; the sphere path drops the rounding-level angular terms the
+// general Jacobian carries, so the two agree to rounding, not bit for bit
+// (test_contact_rows holds them together).
+#pragma once
+#include <ode/ode.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace parode {
+
+// Velocity corrections inv(M) J^T lambda of one body (linear, angular), its
+// inverse mass and scalar inverse inertia (0 when its inertia is not
+// isotropic): all the sweeps read of a body.
+struct alignas(64) BodyRow {
+    double fc[6];
+    double invm;
+    double invi;
+};
+
+struct alignas(64) SphereRow {
+    std::int32_t b1, b2;  // body slots; b2 < 0: static
+    double n[3];          // into body 1
+    double r1, r2;        // lever lengths: contact point = x1 - r1 n = x2 + r2 n
+    double ad_n, ad_t;    // SOR w / (J inv(M) J^T + cfm): normal row, friction rows
+    double rhs[3];        // target velocity terms, unscaled
+    double lambda[3];
+    double cfm;           // cfm / dt, every row
+    double mu;            // friction rows clamped to +-mu lambda[0] (to 0 when mu = 0)
+};
+static_assert(sizeof(SphereRow) == 128, "a sphere row is two cache lines");
+
+struct Block {
+    std::int32_t b1 = -1, b2 = -1;  // body slots; b2 < 0: static
+    int rows = 1;
+    double mu = 0;
+    double J[3][12];    // scaled by Ad
+    double iMJ[3][12];  // inv(M) J^T, unscaled
+    double rhs[3], cfm[3], lambda[3];
+};
+
+// A contact as the builder sees it: bodies, normal into body 1 (ODE's
+// convention), lever arms from the body centres to the contact point, depth.
+struct ContactFrame {
+    std::int32_t b1, b2;   // body slots; b2 < 0: static
+    double n[3], c1[3], c2[3];
+    double depth;
+};
+
+// What a row's build needs beside the frame: per body (1, 2) the velocity
+// terms tmp = v / dt + inv(M) f_ext and the actual velocity (bounce), the
+// surface, and the solver's settings.
+struct RowInputs {
+    const double* tmp[2];  // 6 each; tmp[1] null when static
+    const double* vel[2];
+    const double* invI[2];  // world-frame inverse inertia (Block only)
+    const BodyRow* body[2];
+    const dSurfaceParameters* surface;
+    double fps, erp, cfm, surface_layer, max_correcting_vel, sor_w;
+};
+
+void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K);
+void build_block(const ContactFrame& f, const RowInputs& in, Block& K);
+
+// Impulses in, velocity corrections out (warm start).
+void apply_impulses(const SphereRow& K, BodyRow* bodies);
+void apply_impulses(const Block& K, BodyRow* bodies);
+
+namespace detail {
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double clamp_row(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+// Doubles side by side in one register (GCC/Clang vector extension): two in
+// SSE2's, four in AVX's. The lanes are computed with the same IEEE operations,
+// in the same order, as a double alone. Everything a lane computation calls
+// is forced inline, so that the AVX instantiation is compiled for AVX inside
+// its AVX entry point and nowhere else.
+#define PARODE_LANE_INLINE __attribute__((always_inline)) inline
+using Pair = double __attribute__((vector_size(16)));
+using Quad = double __attribute__((vector_size(32)));
+template <class V>
+constexpr int lanes() { return static_cast<int>(sizeof(V) / sizeof(double)); }
+template <class V>
+PARODE_LANE_INLINE void set_lane(V& v, int l, double x) {
+    if constexpr (lanes<V>() == 1) v = x;
+    else v[l] = x;
+}
+template <class V>
+PARODE_LANE_INLINE double lane(const V& v, int l) {
+    if constexpr (lanes<V>() == 1) return v;
+    else return v[l];
+}
+template <class V>
+PARODE_LANE_INLINE V splat(double x) {
+    V v;
+    for (int l = 0; l < lanes<V>(); ++l) set_lane(v, l, x);
+    return v;
+}
+template <class V>
+PARODE_LANE_INLINE V dot(const V* a, const V* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+template <class V>
+PARODE_LANE_INLINE V clamp(V v, V lo, V hi) { return v < lo ? lo : (v > hi ? hi : v); }
+template <class V>
+PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
+template <class V>
+PARODE_LANE_INLINE V root(V v) {
+    V r;
+    for (int l = 0; l < lanes<V>(); ++l) set_lane(r, l, std::sqrt(lane(v, l)));
+    return r;
+}
+}  // namespace detail
+
+// Unit tangents t1, t2 = n x t1 of a unit normal n, as ODE's dPlaneSpace
+// builds them (t1 in the y-z plane when |n_z| > sqrt(1/2), else in x-y), the
+// same bits whether a lane of V or a double.
+template <class V>
+PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
+    using namespace detail;
+    const V zero = splat<V>(0.0);
+    const auto yz = abs(n[2]) > splat<V>(0.70710678118654752440);
+    const V a = yz ? n[1] * n[1] + n[2] * n[2] : n[0] * n[0] + n[1] * n[1];
+    const V k = splat<V>(1.0) / root(a);
+    t1[0] = yz ? zero : -n[1] * k;
+    t1[1] = yz ? -n[2] * k : n[0] * k;
+    t1[2] = yz ? n[1] * k : zero;
+    t2[0] = yz ? a * k : -n[2] * t1[1];
+    t2[1] = yz ? -n[0] * t1[2] : n[2] * t1[0];
+    t2[2] = yz ? n[0] * t1[1] : a * k;
+}
+
+// One projected Gauss-Seidel update of every row of L sphere contacts that
+// share no body (one per lane of V: double for one, detail::Pair for two,
+// detail::Quad for four),
+// bit for bit what each would give alone. The rows act on the relative
+// velocity terms u = fc1_lin - fc2_lin and w = r1 fc1_ang + r2 fc2_ang only,
+// so u and w are updated in registers row by row (exactly the rows' own
+// effect) and the bodies' corrections once at the end: a short dependency
+// chain instead of a round trip through memory per row. A static partner
+// reads as a body at rest with zero inverse mass; the friction rows of a
+// frictionless contact are clamped to zero: every lane runs the same code.
+template <class V, int L>
+PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
+    using namespace detail;
+    static const BodyRow none{};
+    const BodyRow* B1[L];
+    const BodyRow* B2[L];
+    for (int l = 0; l < L; ++l) {
+        B1[l] = &bodies[K[l]->b1];
+        B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
+    }
+    auto load = [&](auto get) {
+        V v;
+        for (int l = 0; l < L; ++l) set_lane(v, l, get(l));
+        return v;
+    };
+    V f1[6], f2[6], n[3], t1[3], t2[3];
+    for (int i = 0; i < 6; ++i) {
+        f1[i] = load([&](int l) { return B1[l]->fc[i]; });
+        f2[i] = load([&](int l) { return B2[l]->fc[i]; });
+    }
+    for (int i = 0; i < 3; ++i) n[i] = load([&](int l) { return K[l]->n[i]; });
+    tangent_frame(n, t1, t2);
+    const V r1 = load([&](int l) { return K[l]->r1; }), r2 = load([&](int l) { return K[l]->r2; });
+    const V m1 = load([&](int l) { return B1[l]->invm; }), m2 = load([&](int l) { return B2[l]->invm; });
+    const V k1 = load([&](int l) { return B1[l]->invi; }) * r1, k2 = load([&](int l) { return B2[l]->invi; }) * r2;
+    const V cfm = load([&](int l) { return K[l]->cfm; }), mu = load([&](int l) { return K[l]->mu; });
+    const V ad_n = load([&](int l) { return K[l]->ad_n; }), ad_t = load([&](int l) { return K[l]->ad_t; });
+    V rhs[3], lam[3];
+    for (int r = 0; r < 3; ++r) {
+        rhs[r] = load([&](int l) { return K[l]->rhs[r]; });
+        lam[r] = load([&](int l) { return K[l]->lambda[r]; });
+    }
+    const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
+    V u[3], w[3];
+    for (int i = 0; i < 3; ++i) {
+        u[i] = f1[i] - f2[i];
+        w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
+    }
+    // Normal row: no angular part.
+    V x = lam[0] + ad_n * (rhs[0] - cfm * lam[0] - dot(n, u));
+    const V n0 = x < zero ? zero : x;
+    const V d0 = n0 - lam[0];
+    for (int i = 0; i < 3; ++i) u[i] += d0 * m * n[i];
+    const V hi = abs(mu * n0), lo = -hi;
+    // Row t1: angular direction -t2.
+    x = lam[1] + ad_t * (rhs[1] - cfm * lam[1] - (dot(t1, u) - dot(t2, w)));
+    const V n1 = clamp(x, lo, hi);
+    const V d1 = n1 - lam[1];
+    for (int i = 0; i < 3; ++i) {
+        u[i] += d1 * m * t1[i];
+        w[i] -= d1 * k * t2[i];
+    }
+    // Row t2: angular direction t1.
+    x = lam[2] + ad_t * (rhs[2] - cfm * lam[2] - (dot(t2, u) + dot(t1, w)));
+    const V n2 = clamp(x, lo, hi);
+    const V d2 = n2 - lam[2];
+    V dl[3], da[3];
+    for (int i = 0; i < 3; ++i) {
+        dl[i] = d0 * n[i] + (d1 * t1[i] + d2 * t2[i]);
+        da[i] = d2 * t1[i] - d1 * t2[i];
+        f1[i] += m1 * dl[i];
+        f1[3 + i] += k1 * da[i];
+        f2[i] -= m2 * dl[i];
+        f2[3 + i] += k2 * da[i];
+    }
+    for (int l = 0; l < L; ++l) {
+        K[l]->lambda[0] = lane(n0, l);
+        K[l]->lambda[1] = lane(n1, l);
+        K[l]->lambda[2] = lane(n2, l);
+        BodyRow& b1 = bodies[K[l]->b1];
+        for (int i = 0; i < 6; ++i) b1.fc[i] = lane(f1[i], l);
+        if (K[l]->b2 < 0) continue;
+        BodyRow& b2 = bodies[K[l]->b2];
+        for (int i = 0; i < 6; ++i) b2.fc[i] = lane(f2[i], l);
+    }
+}
+
+inline void relax(SphereRow& K, BodyRow* bodies) {
+    SphereRow* one = &K;
+    relax_lanes<double, 1>(&one, bodies);
+}
+
+// Four contacts that share no body, in the four lanes of an AVX register when
+// the processor has AVX (bit for bit the same as two pairs).
+void relax_four(SphereRow* const* K, BodyRow* bodies);
+// Whether relax_four uses AVX; tests may turn it off to compare.
+bool four_lanes();
+void set_four_lanes(bool on);
+
+inline void relax(Block& K, BodyRow* bodies) {
+    double* f1 = bodies[K.b1].fc;
+    double* f2 = K.b2 >= 0 ? bodies[K.b2].fc : nullptr;
+    for (int row = 0; row < K.rows; ++row) {
+        const double* J = K.J[row];
+        double delta = K.rhs[row] - K.lambda[row] * K.cfm[row] - detail::dot3(J, f1) - detail::dot3(J + 3, f1 + 3);
+        if (f2) delta -= detail::dot3(J + 6, f2) + detail::dot3(J + 9, f2 + 3);
+        const double hi = row == 0 ? HUGE_VAL : std::fabs(K.mu * K.lambda[0]);
+        const double lo = row == 0 ? 0.0 : -hi;
+        const double old = K.lambda[row];
+        const double nl = detail::clamp_row(old + delta, lo, hi);
+        delta = nl - old;
+        K.lambda[row] = nl;
+        const double* iMJ = K.iMJ[row];
+        for (int i = 0; i < 6; ++i) f1[i] += delta * iMJ[i];
+        if (f2) {
+            for (int i = 0; i < 6; ++i) f2[i] += delta * iMJ[6 + i];
+        }
+    }
+}
+
+}  // namespace parode

@@ -1,0 +1,32 @@
+// Sizing of per-step scratch vectors (rebuilt from scratch each step, so
+// their old contents need not survive a growth). Growing frees the old buffer
+// before allocating the new one, with a quarter more than asked: a vector
+// whose size creeps up from step to step (the contacts of a collapsing pile)
+// reallocates rarely and never holds two copies at once, which would set the
+// run's peak memory; capacity not yet touched costs no resident memory.
+// Trade-off: the contents are lost on growth, so these are only for vectors
+// every element of which the caller writes after sizing.
+#pragma once
+#include <cstddef>
+
+namespace parode {
+
+template <class V>
+void scratch_resize(V& v, std::size_t n) {
+    if (n > v.capacity()) {
+        V().swap(v);
+        v.reserve(n + n / 4);
+    }
+    v.resize(n);
+}
+
+template <class V, class T>
+void scratch_assign(V& v, std::size_t n, const T& value) {
+    if (n > v.capacity()) {
+        V().swap(v);
+        v.reserve(n + n / 4);
+    }
+    v.assign(n, value);
+}
+
+}  // namespace parode
