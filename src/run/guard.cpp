@@ -142,10 +142,11 @@ nlohmann::json Guard::describe() const {
             {"max_speed", scene_.guard.max_speed}, {"dump", dump_path_}};
 }
 
-void Guard::check_step(const World& world, long step, bool known_finite) const {
+void Guard::check_step(const World& world, long step, bool known_finite, double known_max_speed) const {
     const double vmax = scene_.guard.max_speed;
     std::int64_t bad[2] = {0, 0};  // non-finite, too fast
-    if (!known_finite || vmax > 0) {
+    const bool speeds_known = known_finite && known_max_speed >= 0 && known_max_speed <= vmax;
+    if (!known_finite || (vmax > 0 && !speeds_known)) {
         const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
         std::vector<std::array<std::int64_t, 2>> part(chunks, {0, 0});
         loops().run(chunks, n, [&](std::size_t c) {

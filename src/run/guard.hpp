@@ -33,8 +33,10 @@ public:
     Guard(const World& world, const Diagnostics& initial, const Domain& domain, std::string dump_path);
     // Every step: non-finite state and the speed bound. Throws SimulationError.
     // `known_finite`: the solver wrote every owned body's state and checked it
-    // finite as it did (the scan is then needed only for the speed bound).
-    void check_step(const World& world, long step, bool known_finite = false) const;
+    // finite as it did (the scan is then needed only for the speed bound);
+    // known_max_speed >= 0: the largest speed it wrote (no scan when that is
+    // within the bound).
+    void check_step(const World& world, long step, bool known_finite = false, double known_max_speed = -1.0) const;
     // Observed steps: the energy bound; a passing state becomes the last good one.
     void check_observed(const World& world, const Diagnostics& d, long step);
     // Allowed growth of the total energy (J) after `time` seconds.

@@ -155,7 +155,9 @@ void Pipeline::step() {
     timed(Stage::Solve, [this] { run_solve(); });
     contacts_of_ = ~0ULL;  // bodies moved
     ++steps_;
-    timed(Stage::Observe, [this] { guard_->check_step(*world_, steps_, solver_->wrote_finite_state()); });
+    timed(Stage::Observe, [this] {
+        guard_->check_step(*world_, steps_, solver_->wrote_finite_state(), solver_->max_speed_written());
+    });
     if (steps_ % scene_.observe_every == 0) timed(Stage::Observe, [this] { run_observe(); });
     if (snapshot_every_ > 0 && steps_ % snapshot_every_ == 0) timed(Stage::Output, [this] { run_output(); });
 }

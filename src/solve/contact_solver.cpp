@@ -406,10 +406,10 @@ void ContactSolver::remember(std::size_t k) {
 
 // The explicit update of ODE's steppers (dxStepBody, no damping, no finite
 // rotation): v += h (invM fe + fc); x += h v; q += h/2 (0, w) q, normalised.
-// Velocities, forces and torques go straight to ODE (each touches its own
-// body only); the pose waits for commit (setting it moves the geom in its space).
+// Velocities, forces, torques and the pose go straight to ODE (each touches
+// its own body only); commit then tells the space, in body order.
 // Returns whether the new state is finite.
-bool ContactSolver::integrate_body(std::size_t i) {
+bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_speed) {
     if (world_->ghost(i)) return true;  // its owner integrates it
     BodyData& B = bodies_[i];
     dBodyID b = world_->body(i);
@@ -430,10 +430,13 @@ bool ContactSolver::integrate_body(std::size_t i) {
     for (int k = 0; k < 3; ++k) B.x[k] += h * v[k];
     for (int k = 0; k < 4; ++k) B.acc[k] = nq[k] * len;
     for (int k = 0; k < 6; ++k) B.v[k] = v[k];
+    // The guard's speed (run/guard.cpp), on the same doubles ODE will hold.
+    max_speed = std::max(max_speed, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
     dBodySetLinearVel(b, v[0], v[1], v[2]);
     dBodySetAngularVel(b, v[3], v[4], v[5]);
     dBodySetForce(b, 0, 0, 0);
     dBodySetTorque(b, 0, 0, 0);
+    world.write_pose(i, B.x, B.acc);
     double sum = 0;  // finite iff the sum of every component times zero is zero
     for (int k = 0; k < 3; ++k) sum += B.x[k] * 0.0;
     for (int k = 0; k < 4; ++k) sum += B.acc[k] * 0.0;
@@ -442,8 +445,8 @@ bool ContactSolver::integrate_body(std::size_t i) {
 }
 
 void ContactSolver::commit(World& world) const {
-    for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: the setters move geoms in the space
-        if (!world.ghost(i)) world.set_pose(i, bodies_[i].x, bodies_[i].acc);
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: moves geoms in the space's list
+        if (!world.ghost(i)) world.mark_moved(i);
     }
 }
 
@@ -470,12 +473,16 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     });
     const std::size_t nb = bodies_.size(), chunks = chunk_count(nb, kGrain);
     std::vector<unsigned char> finite(chunks, 1);
+    std::vector<double> fastest(chunks, 0.0);
     loops().run(chunks, nb, [&](std::size_t c) {
         bool ok = true;
-        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) ok &= integrate_body(i);
+        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) {
+            ok &= integrate_body(world, i, fastest[c]);
+        }
         finite[c] = ok;
     });
     finite_ = std::all_of(finite.begin(), finite.end(), [](unsigned char f) { return f != 0; });
+    max_speed_ = finite_ ? *std::max_element(fastest.begin(), fastest.end()) : -1.0;
     commit(world);
 }
 

@@ -81,6 +81,7 @@ public:
     void set_scratch(ScratchPool* pool) override;
     const Substages* substages() const override { return &times_; }
     bool wrote_finite_state() const override { return finite_; }
+    double max_speed_written() const override { return max_speed_; }
 
     static constexpr int kColours = SweepLayout::kColours;
     // Contacts of the last step as compact sphere rows and as general blocks.
@@ -121,7 +122,7 @@ private:
     void match_previous();
     void build_row(std::size_t k);
     void plan_exchange();
-    bool integrate_body(std::size_t i);
+    bool integrate_body(World& world, std::size_t i, double& max_speed);
     void remember(std::size_t k);
     void commit(World& world) const;
     void build_phase();
@@ -155,6 +156,7 @@ private:
     std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
     Substages times_;
     bool finite_ = false;  // every owned body's new state was finite
+    double max_speed_ = -1.0;  // the largest linear speed integrate wrote
 };
 
 }  // namespace parode

@@ -43,6 +43,9 @@ public:
     // True when the last step wrote every owned body's state and found it
     // finite as it did (the guard then skips its own scan).
     virtual bool wrote_finite_state() const { return false; }
+    // With wrote_finite_state: the largest linear speed it wrote, computed as
+    // the guard computes it (negative: not known; the guard then scans).
+    virtual double max_speed_written() const { return -1.0; }
     // A pool for the per-step tables, shared with stages that run at other
     // times of the step (util/scratch_pool.hpp).
     virtual void set_scratch(ScratchPool* /*pool*/) {}

@@ -209,6 +209,37 @@ void World::set_pose(std::size_t local, const double x[3], const double q[4]) {
     for (int k = 0; k < 4; ++k) q_in_[local][static_cast<std::size_t>(k)] = q[k];
 }
 
+// ODE 0.16.2's dBodySetQuaternion normalises with dNormalize4 and fills the
+// rotation with dQtoR (not exported): the same products in the same order,
+// so that the bits agree (test_world_pose compares them with ODE's setter).
+void World::write_pose(std::size_t local, const double x[3], const double q[4]) {
+    dBodyID b = bodies_[local];
+    auto* pos = const_cast<dReal*>(dBodyGetPosition(b));
+    auto* bq = const_cast<dReal*>(dBodyGetQuaternion(b));
+    auto* R = const_cast<dReal*>(dBodyGetRotation(b));
+    for (int k = 0; k < 3; ++k) pos[k] = x[k];
+    for (int k = 0; k < 4; ++k) bq[k] = q[k];
+    dNormalize4(bq);
+    const dReal qq1 = 2 * bq[1] * bq[1], qq2 = 2 * bq[2] * bq[2], qq3 = 2 * bq[3] * bq[3];
+    R[0] = 1 - qq2 - qq3;
+    R[1] = 2 * (bq[1] * bq[2] - bq[0] * bq[3]);
+    R[2] = 2 * (bq[1] * bq[3] + bq[0] * bq[2]);
+    R[3] = 0;
+    R[4] = 2 * (bq[1] * bq[2] + bq[0] * bq[3]);
+    R[5] = 1 - qq1 - qq3;
+    R[6] = 2 * (bq[2] * bq[3] - bq[0] * bq[1]);
+    R[7] = 0;
+    R[8] = 2 * (bq[1] * bq[3] - bq[0] * bq[2]);
+    R[9] = 2 * (bq[2] * bq[3] + bq[0] * bq[1]);
+    R[10] = 1 - qq1 - qq2;
+    R[11] = 0;
+    for (int k = 0; k < 4; ++k) q_in_[local][static_cast<std::size_t>(k)] = q[k];
+}
+
+void World::mark_moved(std::size_t local) {
+    for (dGeomID g = dBodyGetFirstGeom(bodies_[local]); g; g = dBodyGetNextGeom(g)) dGeomMoved(g);
+}
+
 bool World::restore_state(std::size_t local, const BodyState& s, const double ode_q[4]) {
     set_state(local, s);
     const dReal* q = dBodyGetQuaternion(bodies_[local]);

@@ -104,6 +104,14 @@ public:
     void set_state(std::size_t local, const BodyState& s);
     // Position and quaternion input, as the project's integrator sets them.
     void set_pose(std::size_t local, const double x[3], const double q[4]);
+    // set_pose in two halves, so that the first can run on many threads:
+    // write_pose leaves in ODE's body the position, quaternion and rotation
+    // that dBodySetPosition and dBodySetQuaternion would (touching that body
+    // only); mark_moved then tells the body's spaces, as those setters do.
+    // Calling mark_moved in body order keeps each space's geom order, on
+    // which ODE's own spaces' pair order depends.
+    void write_pose(std::size_t local, const double x[3], const double q[4]);
+    void mark_moved(std::size_t local);
     // Sets a body from a saved state; true when ODE then holds exactly the
     // quaternion `ode_q` it held when the state was saved.
     bool restore_state(std::size_t local, const BodyState& s, const double ode_q[4]);
