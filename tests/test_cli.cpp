@@ -328,7 +328,7 @@ TEST_F(Cli, EstimateHonoursTheAddressSpaceLimit) {
 #endif
     const fs::path err = dir_ / "e.txt";
     const std::string cmd = "ulimit -v 600000; '" + std::string(PARODE_BINARY) + "' run '" + kTennis +
-                            "' --set catoms.count=200000 --collide grid --solver parallel -q --steps 2 2>'" +
+                            "' --set catoms.count=400000 --collide grid --solver parallel -q --steps 2 2>'" +
                             err.string() + "'";
     const int status = std::system(("sh -c \"" + cmd + "\"").c_str());
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 6) << status << ": " << slurp(err);

@@ -3,24 +3,25 @@
 // family; they are re-measured when the data structures change, not derived.
 //
 // Measurements (peak RSS from /usr/bin/time -v, 2 steps, 1 thread, tennis.toml):
-//   parode run jobs/scenes/tennis.toml --set catoms.count=N --steps 2 -q --collide grid --solver parallel
-//     N =   8,000:  40,640 kB, 11,831 contacts per step
-//     N =  64,000: 283,108 kB
-//     N = 200,000: 875,176 kB, 304,918 contacts per step
+//   parode run jobs/scenes/tennis.toml --set catoms.count=N --steps 2 -q --threads 1 (grid, parallel)
+//     N =   8,000:  31,464 kB, 11,831 contacts per step
+//     N =  64,000: 132,560 kB, 96,897 contacts per step
+//     N = 200,000: 378,536 kB, 304,918 contacts per step
 //   the same with --set catoms.spacing=1.2 (no catom touches another):
-//     N =   8,000:  21,172 kB,    214 contacts per step
-//     N = 200,000: 367,612 kB,  1,855 contacts per step
-//   bytes = a + b N + c contacts fits all four to 0.1 %: c = 1,715 bytes per
-//   contact (from both pairs), b = 1,833 bytes per body, a = 6.65 MB.
+//     N =   8,000:  28,676 kB,    214 contacts per step
+//     N = 200,000: 302,632 kB,  1,855 contacts per step
+//   bytes = a + b N + c contacts fits all five to 0.3 %: c = 256 bytes per
+//   contact, b = 1,461 bytes per body (of which ODE's own body and sphere
+//   records are about 1,050), a = 17.6 MB.
 //   The prism has 1.5 contacts per catom at the start (1.2 to 1.3 later in the
-//   collapse, 1,000 steps at N = 8,000: same peak); the estimate takes 2.
+//   collapse); the estimate takes 2.
 //   magnetic-tennis.toml at N = 200,000: 912,248 kB: 190 bytes more per catom.
 //   --collide ode-hash: 732,640 kB at N = 64,000 and 5,213,836 kB at 200,000:
 //   ODE's hash space allocates a bit per ordered pair of geoms, geoms^2 / 8 bytes.
 //   --collide ode-sap / grid with --solver ode: 3 to 10 % below grid/parallel.
 //   --trajectory: 24 bytes per body per frame (8,000 bodies, 101 frames: +17 MB).
-// The estimate for N = 200,000 (grid, parallel) is 1.06 GB against 0.90 GB
-// measured; for N = 64,000 with ode-hash 0.86 GB against 0.75 GB.
+// The estimate for N = 200,000 (grid, parallel) is 0.41 GB against 0.39 GB
+// measured; at N = 10^6, 2.0 GB against 1.98 GB (5 steps, analysis/results/scale.csv).
 #include "run/memory_estimate.hpp"
 
 #include <sys/resource.h>
@@ -34,9 +35,9 @@
 namespace parode {
 namespace {
 
-constexpr double kFixedBytes = 6.65e6;
-constexpr double kBytesPerBody = 1833;
-constexpr double kBytesPerContact = 1715;
+constexpr double kFixedBytes = 17.6e6;
+constexpr double kBytesPerBody = 1461;
+constexpr double kBytesPerContact = 256;
 constexpr double kContactsPerBody = 2;
 constexpr double kBytesPerMagnetCatom = 190;
 constexpr double kBytesPerFramePerBody = 24;   // trajectory positions
