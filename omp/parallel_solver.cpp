@@ -30,6 +30,12 @@ int thread_index() {
 // give.
 bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
 
+// Waits like that in one sweep call before it goes on alone: a single one is
+// as likely the kernel's own noise (a few ms once, measured at 10^6 catoms on
+// an otherwise idle machine) as a process holding a core, and going alone for
+// the rest of a step costs far more there; sharing shows at every colour.
+constexpr int kStrikes = 3;
+
 }  // namespace
 
 void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
@@ -38,19 +44,45 @@ void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
     Team::instance().end_step();
 }
 
-// Per colour, one cell range per thread holding about equal numbers of contacts.
+namespace {
+
+// Where the cost measured on ranges [share[j], share[j+1]) (seconds[j] each,
+// spread evenly over its share) reaches `part` of the whole, as a share.
+double cost_quantile(const double* share, const double* seconds, std::size_t t, double part) {
+    double total = 0;
+    for (std::size_t j = 0; j < t; ++j) total += seconds[j];
+    double want = part * total;
+    for (std::size_t j = 0; j < t; ++j) {
+        const double width = share[j + 1] - share[j];
+        if (width <= 0) continue;
+        if (seconds[j] >= want) return share[j] + width * (seconds[j] > 0 ? want / seconds[j] : 0.0);
+        want -= seconds[j];
+    }
+    return 1.0;
+}
+
+}  // namespace
+
+// Per colour, one cell range per thread holding about equal shares of the
+// time measured on the previous call (of contacts, without one).
 void ParallelContactSolver::split(int team) {
     const SweepLayout& L = layout();
-    const std::size_t t = static_cast<std::size_t>(team);
-    ranges_.assign(static_cast<std::size_t>(kColours) * (t + 1), 0);
+    const std::size_t t = static_cast<std::size_t>(team), stride = t + 1;
+    const bool measured = share_.size() == kColours * stride;
+    ranges_.assign(kColours * stride, 0);
+    std::vector<double> share(kColours * stride, 0.0);
     for (int c = 0; c < kColours; ++c) {
-        const std::size_t b = L.colour_begin(c), e = L.colour_end(c);
+        const std::size_t b = L.colour_begin(c), e = L.colour_end(c), at = static_cast<std::size_t>(c) * stride;
         const std::size_t p0 = L.cell_begin(b), p1 = L.cell_begin(e);
-        std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * (t + 1);
+        std::size_t* r = ranges_.data() + at;
+        double total = 0;
+        for (std::size_t j = 0; measured && j < t; ++j) total += seconds_[at + j];
         r[0] = b;
         r[t] = e;
         for (std::size_t j = 1; j < t; ++j) {
-            const std::size_t target = p0 + (p1 - p0) * j / t;
+            const double part = static_cast<double>(j) / static_cast<double>(t);
+            const double g = total > 0 ? cost_quantile(&share_[at], &seconds_[at], t, part) : part;
+            const std::size_t target = p0 + static_cast<std::size_t>(static_cast<double>(p1 - p0) * g);
             std::size_t lo = r[j - 1], hi = e;  // first cell starting at or after target
             while (lo < hi) {
                 const std::size_t mid = (lo + hi) / 2;
@@ -59,7 +91,12 @@ void ParallelContactSolver::split(int team) {
             }
             r[j] = lo;
         }
+        for (std::size_t j = 0; j <= t; ++j) {
+            share[at + j] = p1 > p0 ? static_cast<double>(L.cell_begin(r[j]) - p0) / static_cast<double>(p1 - p0) : 0.0;
+        }
     }
+    share_.swap(share);
+    seconds_.assign(kColours * stride, 0.0);
 }
 
 void ParallelContactSolver::sweep(int passes, bool warm) {
@@ -77,8 +114,8 @@ void ParallelContactSolver::sweep(int passes, bool warm) {
 
 // The threads relax their ranges colour by colour, a barrier after each
 // colour. Steps (colours of all passes) are numbered; a thread that waited too
-// long at the barrier after step k sets `alone_at` to k + 2 (the least such
-// value wins). After the barrier of step k - 1 every thread sees every value
+// long at the barrier after step k for the kStrikes-th time sets `alone_at`
+// to k + 2 (the least such value wins). After the barrier of step k - 1 every thread sees every value
 // written before it, and values written after it are at least k + 1, so all
 // threads agree whether step k runs alone: from then on thread 0 runs the
 // remaining steps by itself and the others leave. Returns whether it did.
@@ -86,7 +123,8 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
     const std::size_t stride = static_cast<std::size_t>(team) + 1;
     const long steps = static_cast<long>(passes) * kColours;
     std::atomic<long> alone_at{steps};
-#pragma omp parallel num_threads(team) shared(alone_at)
+    std::atomic<int> strikes{0};
+#pragma omp parallel num_threads(team) shared(alone_at, strikes)
     {
         const std::size_t me = static_cast<std::size_t>(thread_index());
         for (long k = 0; k < steps; ++k) {
@@ -100,13 +138,14 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
             if (warm) warm_cells(r[me], r[me + 1]);
             else relax_cells(r[me], r[me + 1]);
             const double t1 = now();
+            seconds_[static_cast<std::size_t>(c) * stride + me] += t1 - t0;
 #pragma omp barrier
             if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
 #pragma omp master
                 exchange_after(c);
 #pragma omp barrier
             }
-            if (descheduled(t1 - t0, now() - t1)) {
+            if (descheduled(t1 - t0, now() - t1) && strikes.fetch_add(1, std::memory_order_relaxed) + 1 >= kStrikes) {
                 long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
                 while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
                 }
