@@ -30,11 +30,14 @@ int thread_index() {
 // give.
 bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
 
-// Waits like that in one sweep call before it goes on alone: a single one is
-// as likely the kernel's own noise (a few ms once, measured at 10^6 catoms on
-// an otherwise idle machine) as a process holding a core, and going alone for
-// the rest of a step costs far more there; sharing shows at every colour.
-constexpr int kStrikes = 3;
+// Such a wait counts only when the thread has also waited longer than it
+// worked over the whole call so far: at 10^6 catoms a colour is milliseconds
+// of work and the kernel's own noise (a few ms now and then, measured on an
+// otherwise idle machine) is no reason to give up a core for the rest of the
+// step; a process that holds the core makes the waits add up at any size.
+bool gave_up(double work, double wait, double total_work, double total_wait) {
+    return descheduled(work, wait) && total_wait > total_work;
+}
 
 }  // namespace
 
@@ -114,8 +117,8 @@ void ParallelContactSolver::sweep(int passes, bool warm) {
 
 // The threads relax their ranges colour by colour, a barrier after each
 // colour. Steps (colours of all passes) are numbered; a thread that waited too
-// long at the barrier after step k for the kStrikes-th time sets `alone_at`
-// to k + 2 (the least such value wins). After the barrier of step k - 1 every thread sees every value
+// long at the barrier after step k (gave_up) sets `alone_at` to k + 2 (the
+// least such value wins). After the barrier of step k - 1 every thread sees every value
 // written before it, and values written after it are at least k + 1, so all
 // threads agree whether step k runs alone: from then on thread 0 runs the
 // remaining steps by itself and the others leave. Returns whether it did.
@@ -123,9 +126,9 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
     const std::size_t stride = static_cast<std::size_t>(team) + 1;
     const long steps = static_cast<long>(passes) * kColours;
     std::atomic<long> alone_at{steps};
-    std::atomic<int> strikes{0};
-#pragma omp parallel num_threads(team) shared(alone_at, strikes)
+#pragma omp parallel num_threads(team) shared(alone_at)
     {
+        double total_work = 0, total_wait = 0;
         const std::size_t me = static_cast<std::size_t>(thread_index());
         for (long k = 0; k < steps; ++k) {
             const int c = static_cast<int>(k % kColours);
@@ -145,7 +148,10 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
                 exchange_after(c);
 #pragma omp barrier
             }
-            if (descheduled(t1 - t0, now() - t1) && strikes.fetch_add(1, std::memory_order_relaxed) + 1 >= kStrikes) {
+            const double wait = now() - t1;
+            total_work += t1 - t0;
+            total_wait += wait;
+            if (gave_up(t1 - t0, wait, total_work, total_wait)) {
                 long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
                 while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
                 }

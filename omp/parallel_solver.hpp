@@ -9,13 +9,14 @@
 // more at a million catoms (cache misses, plane against sphere rows), and
 // // equal contact counts left one thread waiting a third of the sweep. The
 // threads time their work and their waits: when a thread has waited at a
-// barrier longer than it worked and over a millisecond three times in one
-// call (another process holds a core and the kernel deschedules a thread),
-// the rest of the step runs on one thread, two colours later (omp/team.hpp).
+// barrier longer than it worked and over a millisecond, and in all the call
+// so far has waited longer than it worked (another process holds a core and
+// the kernel deschedules a thread), the rest of the step runs on one thread,
+// two colours later (omp/team.hpp).
 // Results are bit for bit those of the serial "pgs" for any thread count.
 // Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
 // above the crossover (README.md); the timing costs three clock reads a colour,
-// and a shared core still costs up to four barriers' wait before the verdict.
+// and a shared core still costs waits as long as the work before the verdict.
 #pragma once
 #include <vector>
 

@@ -7,11 +7,12 @@
 //   for a thread the kernel has descheduled. The threaded sweeps of the
 //   contact solver time their threads' work and waits at every colour
 //   barrier; when a thread waits over a millisecond and longer than it worked
-//   (three times in one sweep call: once is the kernel's noise), the rest of the step's sweeps run on one thread, and so do all other
+//   (and, over the sweep call so far, has waited longer than it worked: a
+//   single wait is as likely the kernel's noise), the rest of the step's sweeps run on one thread, and so do all other
 //   stages from then on. Only the solver's iterations try threads again, on a
 //   later step (after 1, 2, 4, ... 16 steps while the sharing lasts); when a
 //   try succeeds every stage has its threads back.
-// Trade-off: a shared machine loses about four barriers' wait per try, instead
+// Trade-off: a shared machine loses waits as long as the work per try, instead
 // of a descheduled thread's time slice at every barrier of every stage; a
 // machine that frees up waits up to 16 steps to get its threads back.
 #pragma once
