@@ -3,7 +3,8 @@
 # packages for analysis/ and the snapshot tests), then configures and builds
 # with a CMake preset. HDF5 comes in both Debian flavours (serial for the
 # serial/omp presets, Open MPI for the MPI ones); ParaView (pvbatch, run under
-# Xvfb) draws analysis/snapshot_view.py's picture.
+# Xvfb) draws analysis/snapshot_view.py's picture. No test needs ParaView (about
+# 440 MB of packages): with CI=true it is left out.
 # Idempotent: installs only what is missing, rebuilds only what changed.
 # Usage: jobs/setup.sh [PRESET]   (default: ci = OpenMP + MPI, warnings as errors)
 set -euo pipefail
@@ -13,7 +14,8 @@ export DEBIAN_FRONTEND=noninteractive
 
 apt_packages=(build-essential cmake ninja-build pkg-config libode-dev libmetis-dev
   libopenmpi-dev openmpi-bin libgtest-dev nlohmann-json3-dev libtoml11-dev libcli11-dev shellcheck
-  libhdf5-dev libhdf5-openmpi-dev paraview python3-paraview xvfb xauth python3 python3-pip)
+  libhdf5-dev libhdf5-openmpi-dev python3 python3-pip)
+[ "${CI:-}" = "true" ] || apt_packages+=(paraview python3-paraview xvfb xauth)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
