@@ -21,6 +21,12 @@ inline void set_geom_id(dGeomID g, std::uint32_t id) {
 }
 
 struct ContactRecord {
+    // Left uninitialised: the merge sizes the step's buffer (1.7 million
+    // records, 190 MB at 10^6 catoms) and then writes every record on its
+    // threads; a zeroing resize was a serial pass over all of it first.
+    ContactRecord() {}
+    ContactRecord(std::uint32_t lo_, std::uint32_t hi_, std::uint32_t index_, const dContactGeom& geom_)
+        : lo(lo_), hi(hi_), index(index_), geom(geom_) {}
     std::uint32_t lo;     // id of geom passed first to dCollide
     std::uint32_t hi;     // id of geom passed second
     std::uint32_t index;  // index of the contact within its pair
