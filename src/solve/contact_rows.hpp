@@ -116,6 +116,16 @@ template <class V>
 PARODE_LANE_INLINE V dot(const V* a, const V* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 template <class V>
 PARODE_LANE_INLINE V clamp(V v, V lo, V hi) { return v < lo ? lo : (v > hi ? hi : v); }
+// Lane l of the result is get(l). A function, not a lambda: a lambda is not
+// forced inline nor compiled for its enclosing function's AVX target, so
+// where it is not inlined (-O0) it would return an AVX register through the
+// non-AVX calling convention (AddressSanitizer caught the mismatch).
+template <class V, int L, class Get>
+PARODE_LANE_INLINE V gather_lanes(Get get) {
+    V v;
+    for (int l = 0; l < L; ++l) set_lane(v, l, get(l));
+    return v;
+}
 template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
 template <class V>
@@ -164,27 +174,22 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
         B1[l] = &bodies[K[l]->b1];
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
-    auto load = [&](auto get) {
-        V v;
-        for (int l = 0; l < L; ++l) set_lane(v, l, get(l));
-        return v;
-    };
     V f1[6], f2[6], n[3], t1[3], t2[3];
     for (int i = 0; i < 6; ++i) {
-        f1[i] = load([&](int l) { return B1[l]->fc[i]; });
-        f2[i] = load([&](int l) { return B2[l]->fc[i]; });
+        f1[i] = gather_lanes<V, L>([&](int l) { return B1[l]->fc[i]; });
+        f2[i] = gather_lanes<V, L>([&](int l) { return B2[l]->fc[i]; });
     }
-    for (int i = 0; i < 3; ++i) n[i] = load([&](int l) { return K[l]->n[i]; });
+    for (int i = 0; i < 3; ++i) n[i] = gather_lanes<V, L>([&](int l) { return K[l]->n[i]; });
     tangent_frame(n, t1, t2);
-    const V r1 = load([&](int l) { return K[l]->r1; }), r2 = load([&](int l) { return K[l]->r2; });
-    const V m1 = load([&](int l) { return B1[l]->invm; }), m2 = load([&](int l) { return B2[l]->invm; });
-    const V k1 = load([&](int l) { return B1[l]->invi; }) * r1, k2 = load([&](int l) { return B2[l]->invi; }) * r2;
-    const V cfm = load([&](int l) { return K[l]->cfm; }), mu = load([&](int l) { return K[l]->mu; });
-    const V ad_n = load([&](int l) { return K[l]->ad_n; }), ad_t = load([&](int l) { return K[l]->ad_t; });
+    const V r1 = gather_lanes<V, L>([&](int l) { return K[l]->r1; }), r2 = gather_lanes<V, L>([&](int l) { return K[l]->r2; });
+    const V m1 = gather_lanes<V, L>([&](int l) { return B1[l]->invm; }), m2 = gather_lanes<V, L>([&](int l) { return B2[l]->invm; });
+    const V k1 = gather_lanes<V, L>([&](int l) { return B1[l]->invi; }) * r1, k2 = gather_lanes<V, L>([&](int l) { return B2[l]->invi; }) * r2;
+    const V cfm = gather_lanes<V, L>([&](int l) { return K[l]->cfm; }), mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
+    const V ad_n = gather_lanes<V, L>([&](int l) { return K[l]->ad_n; }), ad_t = gather_lanes<V, L>([&](int l) { return K[l]->ad_t; });
     V rhs[3], lam[3];
     for (int r = 0; r < 3; ++r) {
-        rhs[r] = load([&](int l) { return K[l]->rhs[r]; });
-        lam[r] = load([&](int l) { return K[l]->lambda[r]; });
+        rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
+        lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
     }
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
     V u[3], w[3];
