@@ -13,17 +13,9 @@
 namespace parode {
 namespace {
 
+using detail::cross3;
 using detail::dot3;
-
-void cross(const double* a, const double* b, double* out) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-void mul33(const double* M, const double* v, double* out) {
-    for (int r = 0; r < 3; ++r) out[r] = M[3 * r] * v[0] + M[3 * r + 1] * v[1] + M[3 * r + 2] * v[2];
-}
+using detail::mul33;
 
 // Target velocity of the normal row (ERP on the depth past the surface layer,
 // capped; bounce when closing faster than bounce_vel) given the closing
@@ -46,8 +38,8 @@ void jacobian_row(const double* dir, const double* c1, const double* c2, double*
         J[i] = dir[i];
         J[6 + i] = -dir[i];
     }
-    cross(c1, dir, J + 3);
-    cross(dir, c2, J + 9);
+    cross3(c1, dir, J + 3);
+    cross3(dir, c2, J + 9);
 }
 
 }  // namespace

@@ -85,6 +85,15 @@ void apply_impulses(const Block& K, BodyRow* bodies);
 namespace detail {
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 inline double clamp_row(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
+inline void cross3(const double* a, const double* b, double* out) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+// out = M v, M row-major 3x3.
+inline void mul33(const double* M, const double* v, double* out) {
+    for (int r = 0; r < 3; ++r) out[r] = M[3 * r] * v[0] + M[3 * r + 1] * v[1] + M[3 * r + 2] * v[2];
+}
 
 // Doubles side by side in one register (GCC/Clang vector extension): two in
 // SSE2's, four in AVX's. The lanes are computed with the same IEEE operations,

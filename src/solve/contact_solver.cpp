@@ -15,15 +15,8 @@ namespace {
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 constexpr std::size_t kGrain = 2048;
 
-void cross(const double* a, const double* b, double* out) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-void mul33(const double* M, const double* v, double* out) {
-    for (int r = 0; r < 3; ++r) out[r] = M[3 * r] * v[0] + M[3 * r + 1] * v[1] + M[3 * r + 2] * v[2];
-}
+using detail::cross3;
+using detail::mul33;
 
 // out = R A R^T, with R in ODE's 3x4 layout and A, out row-major 3x3.
 void rotate_tensor(const dReal* R, const double* A, double* out) {
@@ -102,7 +95,7 @@ void ContactSolver::prepare_body(std::size_t i) {
         if (dBodyGetGyroscopicMode(b)) {
             double L[3], gyro[3];
             mul33(Iw, w, L);
-            cross(w, L, gyro);
+            cross3(w, L, gyro);
             for (int k = 0; k < 3; ++k) te[k] -= gyro[k];
         }
         mul33(invI_[i].data(), te, a);
