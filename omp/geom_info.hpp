@@ -30,6 +30,11 @@ enum GeomFlag : std::uint32_t {
     kWideBits = 1u << 10,   // category or collide bits beyond what the flags hold
 };
 
+// Whether a pair of these flags takes the exact sphere fast path.
+inline bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
+    return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
+}
+
 // Category and collide bits below 256 or all ones (ODE's default) ride in the
 // flags' top 16 bits as their low 8 bits, so that the pair filter needs no
 // other memory: for such values, `(a.category & b.collide) != 0` equals the

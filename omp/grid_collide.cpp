@@ -14,13 +14,13 @@
 #include "task_split.hpp"
 
 #include <algorithm>
-#include <chrono>
 
 #include "cell_grid.hpp"
 #include "geom_info.hpp"
 #include "grid_pairs.hpp"
 #include "lanes.hpp"
 #include "team.hpp"
+#include "util/substages.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -34,22 +34,6 @@ constexpr std::size_t kGridChunk = 256;  // sorted geoms per task in the grid pa
 // and small scenes").
 constexpr std::size_t kCollideCrossover = 2000;
 constexpr std::size_t kScanChunk = 512;  // geoms per task in scans against a few geoms
-
-bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
-    return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
-}
-
-int thread_index() {
-#ifdef _OPENMP
-    return omp_get_thread_num();
-#else
-    return 0;
-#endif
-}
-
-double now() {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 int default_threads() {
 #ifdef _OPENMP
@@ -262,17 +246,17 @@ void CollideEngine::Impl::all_pairs() {
 // Pairs among the geoms of `space` (ODE's dSpaceCollide), then, if `recurse`,
 // the internal pairs of every nested space (as collide_space_reference does).
 void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
-    const double t0 = now();
+    const double t0 = now_seconds();
     for (Lane& l : lanes) store_fast_runs(l, fast_source());  // the grid is about to change
     read_space(space);
     if (use_reference) return;
-    const double t1 = now();
+    const double t1 = now_seconds();
     split_items();
     grid.build(infos, small, small_bounds);
     build_big();
-    const double t2 = now();
+    const double t2 = now_seconds();
     all_pairs();
-    const double t3 = now();
+    const double t3 = now_seconds();
     times.read += t1 - t0;
     times.build += t2 - t1;
     times.pairs += t3 - t2;
@@ -400,12 +384,12 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
 #pragma omp single
     {
         m.space_internal(space, true);
-        const double t0 = now();
+        const double t0 = now_seconds();
         m.drain_deferred();
-        const double t1 = now();
+        const double t1 = now_seconds();
         if (!m.use_reference) merge_lanes(m.lanes, m.fast_source(), out, m.merge);
         m.times.deferred += t1 - t0;
-        m.times.merge += now() - t1;
+        m.times.merge += now_seconds() - t1;
     }
     if (m.use_reference) collide_space_reference(space, max_contacts, out);
     m.split_pairs();

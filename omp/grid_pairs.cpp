@@ -2,16 +2,11 @@
 #include "grid_pairs.hpp"
 
 #include <algorithm>
-#include <chrono>
+
+#include "util/substages.hpp"
 
 namespace parode::omp {
 namespace {
-
-double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
-
-bool fast_pair(std::uint32_t fa, std::uint32_t fb) {
-    return ((fa & kSphere) && (fb & (kSphere | kPlane))) || ((fa & kPlane) && (fb & kSphere));
-}
 
 // ODE's collideAABBs filter on two entries; bits beyond the flags from infos.
 bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
@@ -103,12 +98,12 @@ void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane&
 }  // namespace
 
 void chunk_pairs(const PairInputs& in, std::size_t a0, std::size_t a1, Lane& l) {
-    const double t0 = now();
+    const double t0 = now_seconds();
     broadphase(in, a0, a1, l.candidates);
-    const double t1 = now();
+    const double t1 = now_seconds();
     narrowphase(in, l.candidates, l);
     l.broad += t1 - t0;
-    l.narrow += now() - t1;
+    l.narrow += now_seconds() - t1;
 }
 
 void big_pairs(const PairInputs& in, Lane& l) {

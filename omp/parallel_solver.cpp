@@ -3,9 +3,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 
+#include "task_split.hpp"
 #include "team.hpp"
+#include "util/substages.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -13,16 +14,6 @@
 
 namespace parode::omp {
 namespace {
-
-double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
-
-int thread_index() {
-#ifdef _OPENMP
-    return omp_get_thread_num();
-#else
-    return 0;
-#endif
-}
 
 // A thread waited at a barrier longer than it worked on the colour before it,
 // and long enough to be a descheduled thread rather than a slow wake-up or an
@@ -137,10 +128,10 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
                 break;
             }
             const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
-            const double t0 = now();
+            const double t0 = now_seconds();
             if (warm) warm_cells(r[me], r[me + 1]);
             else relax_cells(r[me], r[me + 1]);
-            const double t1 = now();
+            const double t1 = now_seconds();
             seconds_[static_cast<std::size_t>(c) * stride + me] += t1 - t0;
 #pragma omp barrier
             if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
@@ -148,7 +139,7 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
                 exchange_after(c);
 #pragma omp barrier
             }
-            const double wait = now() - t1;
+            const double wait = now_seconds() - t1;
             total_work += t1 - t0;
             total_wait += wait;
             if (gave_up(t1 - t0, wait, total_work, total_wait)) {

@@ -10,28 +10,21 @@
 #include <cstddef>
 #include <vector>
 
+#include "util/parallel.hpp"  // outer_inner_offsets, the prefix the taskloops combine by
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
 namespace parode::omp {
 
-// Exclusive prefix over an outer index (blocks, slabs) and an inner one (lanes,
-// tasks) of counts[inner * n_outer + outer]: replaces each count with where its
-// run starts; outer_start[o] is where outer entry o starts (size n_outer + 1).
-inline void outer_inner_offsets(std::size_t n_inner, std::size_t n_outer, std::vector<std::size_t>& counts,
-                                std::vector<std::size_t>& outer_start) {
-    outer_start.assign(n_outer + 1, 0);
-    std::size_t acc = 0;
-    for (std::size_t o = 0; o < n_outer; ++o) {
-        outer_start[o] = acc;
-        for (std::size_t i = 0; i < n_inner; ++i) {
-            const std::size_t c = counts[i * n_outer + o];
-            counts[i * n_outer + o] = acc;
-            acc += c;
-        }
-    }
-    outer_start[n_outer] = acc;
+// This thread's number in the current team (0 outside OpenMP).
+inline int thread_index() {
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
 }
 
 inline std::size_t task_count(std::size_t n, std::size_t grain) {

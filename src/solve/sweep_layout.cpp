@@ -17,23 +17,6 @@ constexpr std::size_t kGrain = 4096;
 
 std::uint64_t coord(std::uint64_t key, int axis) { return CellSpace::coord(key, axis); }
 
-// Exclusive prefix over outer (slabs, colours) then inner (chunks) of
-// counts[inner * n_outer + outer]; outer_start[o] = first position of o.
-void outer_inner_prefix(std::size_t n_inner, std::size_t n_outer, std::vector<std::size_t>& counts,
-                        std::vector<std::size_t>& outer_start) {
-    outer_start.assign(n_outer + 1, 0);
-    std::size_t acc = 0;
-    for (std::size_t o = 0; o < n_outer; ++o) {
-        outer_start[o] = acc;
-        for (std::size_t i = 0; i < n_inner; ++i) {
-            const std::size_t c = counts[i * n_outer + o];
-            counts[i * n_outer + o] = acc;
-            acc += c;
-        }
-    }
-    outer_start[n_outer] = acc;
-}
-
 }  // namespace
 
 SweepLayout::Box SweepLayout::bounding_box(const LayoutInput& in) const {
@@ -83,7 +66,7 @@ void SweepLayout::sort_dense(const LayoutInput& in, const Box& box) {
             ++slab_pos_[c * slabs + z];
         }
     });
-    outer_inner_prefix(chunks, slabs, slab_pos_, slab_start_);
+    outer_inner_offsets(chunks, slabs, slab_pos_, slab_start_);
     slab_items_.resize(n);
     loops().run(chunks, n, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
@@ -183,7 +166,7 @@ void SweepLayout::place_contacts() {
             if (k) ++per[c * kColours + static_cast<std::size_t>(colour_[t])];
         }
     });
-    outer_inner_prefix(chunks, kColours, per, colour_first);
+    outer_inner_offsets(chunks, kColours, per, colour_first);
     for (int c = 0; c <= kColours; ++c) colour_start_[static_cast<std::size_t>(c)] = colour_first[static_cast<std::size_t>(c)];
     const std::size_t tasks = colour_first[kColours];
     task_cell_.resize(tasks);

@@ -9,6 +9,7 @@
 #pragma once
 #include <cstddef>
 #include <functional>
+#include <vector>
 
 namespace parode {
 
@@ -31,6 +32,25 @@ inline std::size_t chunk_begin(std::size_t n, std::size_t chunks, std::size_t c)
 // Chunks for a loop over n items: about one per `grain` items, at most 16 per
 // thread and at least one.
 std::size_t chunk_count(std::size_t n, std::size_t grain);
+
+// Exclusive prefix over an outer index (blocks, slabs, colours) and an inner
+// one (chunks, lanes, tasks) of counts[inner * n_outer + outer]: replaces each
+// count with where its run starts; outer_start[o] is where outer entry o
+// starts (size n_outer + 1). The order in which chunks' results are combined.
+inline void outer_inner_offsets(std::size_t n_inner, std::size_t n_outer, std::vector<std::size_t>& counts,
+                                std::vector<std::size_t>& outer_start) {
+    outer_start.assign(n_outer + 1, 0);
+    std::size_t acc = 0;
+    for (std::size_t o = 0; o < n_outer; ++o) {
+        outer_start[o] = acc;
+        for (std::size_t i = 0; i < n_inner; ++i) {
+            const std::size_t c = counts[i * n_outer + o];
+            counts[i * n_outer + o] = acc;
+            acc += c;
+        }
+    }
+    outer_start[n_outer] = acc;
+}
 
 // f(begin, end) over consecutive ranges covering [0, n).
 template <class F>

@@ -30,6 +30,11 @@ private:
     std::vector<std::pair<std::string, double>> items_;
 };
 
+// Seconds on the steady clock: differences of two readings time a phase.
+inline double now_seconds() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 // Seconds since an earlier now().
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
