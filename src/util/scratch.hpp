@@ -9,6 +9,8 @@
 #pragma once
 #include <cstddef>
 
+#include "huge_pages.hpp"
+
 namespace parode {
 
 template <class V>
@@ -16,6 +18,7 @@ void scratch_resize(V& v, std::size_t n) {
     if (n > v.capacity()) {
         V().swap(v);
         v.reserve(n + n / 4);
+        advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
     }
     v.resize(n);
 }
@@ -25,6 +28,7 @@ void scratch_assign(V& v, std::size_t n, const T& value) {
     if (n > v.capacity()) {
         V().swap(v);
         v.reserve(n + n / 4);
+        advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
     }
     v.assign(n, value);
 }

@@ -16,6 +16,8 @@
 #include <memory>
 #include <type_traits>
 
+#include "huge_pages.hpp"
+
 namespace parode {
 
 class ScratchPool {
@@ -28,6 +30,7 @@ public:
             s.data.reset();
             s.capacity = bytes + bytes / 4;
             s.data.reset(new std::byte[s.capacity + 63]);
+            advise_huge_pages(s.data.get(), s.capacity + 63);
         }
         const auto at = reinterpret_cast<std::uintptr_t>(s.data.get());
         return s.data.get() + ((64 - at % 64) % 64);
