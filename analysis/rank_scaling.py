@@ -53,7 +53,7 @@ def load(directory):
                "comm_s": par.get("comm_seconds", {}).get("max", 0.0) if isinstance(par.get("comm_seconds"), dict) else 0.0,
                "messages": par.get("messages_per_step", 0.0),
                "rss_mb": r.get("memory", {}).get("peak_rss_bytes", {}).get("max", 0.0) / 2**20,
-               "wall": r["wall_s"]}
+               "wall": r.get("steps_wall_s", r["wall_s"])}
         for s in STAGES:
             row[s] = 1e3 * r["stages"].get(s, 0.0) / steps
         rows.append(row)

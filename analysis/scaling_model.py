@@ -85,11 +85,11 @@ class Model:
     def __init__(self, one, two, lat, args):
         steps1, steps2 = one["steps"], two["steps"]
         self.n1 = one["bodies"]
-        self.c = one["wall_s"] / steps1 / self.n1                  # s per catom per step
+        self.c = one.get("steps_wall_s", one["wall_s"]) / steps1 / self.n1                  # s per catom per step
         par = two["parallel"]
         self.ghosts2 = par["ghost_fraction"] * two["bodies"] / 2   # per rank, one face
         comm2 = par["comm_seconds"]["max"] / steps2
-        compute2 = two["wall_s"] / steps2 - comm2
+        compute2 = two.get("steps_wall_s", two["wall_s"]) / steps2 - comm2
         owned2 = two["bodies"] / 2
         self.phi = max(0.0, (compute2 / self.c - owned2) / max(self.ghosts2, 1.0))
         self.bytes2 = par["comm_bytes"] / steps2 / 2               # per rank per step

@@ -90,7 +90,7 @@ def load_scene(scene_dir):
 def row(scene, name, runs):
     first = runs[0]
     e, s = first["error"], first["solver"]
-    costs = [r["wall_s"] / (r["steps"] * r["dt"]) for r in runs]
+    costs = [r.get("steps_wall_s", r["wall_s"]) / (r["steps"] * r["dt"]) for r in runs]
     errors = [scene_error(scene, r["error"]) for r in runs]
     o = e["observables"]
     return {"config": name, "dt": first["dt"], "solver": first["backends"]["solve"], "iterations": s["iterations"],

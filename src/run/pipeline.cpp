@@ -40,7 +40,9 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 1;
 #endif
     timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
+    const double collide_before = stages_[static_cast<int>(Stage::Collide)].seconds;
     timed(Stage::Collide, [this] { run_collide(); });
+    setup_collide_s_ = stages_[static_cast<int>(Stage::Collide)].seconds - collide_before;
     initial_ = observe(*world_, contacts_, *domain_);
     last_ = initial_;
     guard_ = std::make_unique<Guard>(*world_, initial_, *domain_, options.dump_path);
@@ -150,7 +152,11 @@ void Pipeline::step() {
     });
     timed(Stage::Forces, [this] { run_forces(); });
     if (stage(Stage::Forces).enabled) timed(Stage::Exchange, [this] { domain_->exchange_forces(*world_); });
-    if (contacts_of_ != world_->generation()) timed(Stage::Collide, [this] { run_collide(); });
+    if (contacts_of_ != world_->generation()) {
+        timed(Stage::Collide, [this] { run_collide(); });
+    } else if (steps_ == first_step_) {
+        collide_reused_ = true;
+    }
     timed(Stage::Joints, [this] { run_joints(); });
     timed(Stage::Solve, [this] { run_solve(); });
     contacts_of_ = ~0ULL;  // bodies moved

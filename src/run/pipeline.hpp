@@ -96,6 +96,10 @@ public:
     // Empty when a restart continues the checkpointed run bit for bit, else why not.
     std::string restart_caveat() const;
     int first_step() const { return first_step_; }
+    // Seconds of the collision run while the pipeline was built, when the first
+    // step solved its contacts (that collision is then part of the steps'
+    // work, not of the set-up); else 0.
+    double collide_before_steps() const { return collide_reused_ ? setup_collide_s_ : 0.0; }
     // The substage timers of a stage's backend (collide, solve), or null.
     const Substages* substages(Stage s) const;
 
@@ -139,6 +143,8 @@ private:
     std::int64_t inexact_ = 0;
     nlohmann::json restart_meta_;
     std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
+    double setup_collide_s_ = 0;          // the collision run by the constructor
+    bool collide_reused_ = false;         // the first step solved those contacts
 };
 
 }  // namespace parode
