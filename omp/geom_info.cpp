@@ -111,13 +111,23 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
     const dGeomID* src = geoms.data();
-    // The union of flags is taken after the tasks from what they wrote (no task
-    // reduction: each task writes only its own entries).
-#pragma omp taskloop num_tasks(task_count(n, 1024)) default(none) firstprivate(dst, src, n)
-    for (std::size_t i = 0; i < n; ++i) dst[i] = read_geom(src[i], true);
-    std::uint32_t any = 0;
-    for (std::size_t i = 0; i < n; ++i) any |= dst[i].flags;
-    return any;
+    // Each task ORs the flags it wrote into its own entry; the union over
+    // tasks is serial (a few hundred entries, not a pass over the table).
+    const std::size_t blocks = task_count(n, 1024);
+    std::vector<std::uint32_t> any(blocks, 0);
+    std::uint32_t* flags = any.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, src, n, blocks, flags)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        std::uint32_t f = 0;
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            dst[i] = read_geom(src[i], true);
+            f |= dst[i].flags;
+        }
+        flags[b] = f;
+    }
+    std::uint32_t all = 0;
+    for (std::uint32_t f : any) all |= f;
+    return all;
 }
 
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,

@@ -35,13 +35,22 @@ struct BlockMap {
     }
 };
 
+// The largest lower id is found lane by lane in tasks (a lane holds a
+// thread's share of the runs).
 BlockMap block_map(const std::vector<Lane>& lanes) {
-    std::size_t total = 0;
-    std::uint32_t max_lo = 0;
-    for (const Lane& l : lanes) {
-        total += l.runs.size();
-        for (const PairRun& r : l.runs) max_lo = std::max(max_lo, r.lo);
+    const std::size_t nl = lanes.size();
+    std::vector<std::uint32_t> lane_max(nl, 0);
+    std::uint32_t* out = lane_max.data();
+    const Lane* lane = lanes.data();
+#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, out, nl)
+    for (std::size_t l = 0; l < nl; ++l) {
+        std::uint32_t m = 0;
+        for (const PairRun& r : lane[l].runs) m = std::max(m, r.lo);
+        out[l] = m;
     }
+    std::size_t total = 0;
+    for (const Lane& l : lanes) total += l.runs.size();
+    const std::uint32_t max_lo = nl ? *std::max_element(lane_max.begin(), lane_max.end()) : 0;
     const std::size_t blocks = std::clamp<std::size_t>(total / kRunsPerBlock, 1, kMaxBlocks);
     return BlockMap{blocks, static_cast<std::uint64_t>(max_lo) + 1};
 }

@@ -438,9 +438,7 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
 }
 
 void ContactSolver::commit(World& world) const {
-    for (std::size_t i = 0; i < bodies_.size(); ++i) {  // serial: moves geoms in the space's list
-        if (!world.ghost(i)) world.mark_moved(i);
-    }
+    world.mark_moved_owned(0, bodies_.size());  // serial: moves geoms in the space's list
 }
 
 void ContactSolver::step(World& world, const ContactBuffer& contacts) {
