@@ -106,28 +106,39 @@ void list_space(dSpaceID space, std::vector<dGeomID>& out) {
     for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = dSpaceGetGeom(space, i);
 }
 
+namespace {
+
+// Reads geoms [begin, end) of src into dst; returns the union of their flags.
+std::uint32_t read_range(const dGeomID* src, GeomInfo* dst, std::size_t begin, std::size_t end) {
+    std::uint32_t f = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+        dst[i] = read_geom(src[i], true);
+        f |= dst[i].flags;
+    }
+    return f;
+}
+
+std::uint32_t union_of(const std::vector<std::uint32_t>& flags) {
+    std::uint32_t all = 0;
+    for (std::uint32_t f : flags) all |= f;
+    return all;
+}
+
+}  // namespace
+
+// Each task keeps the union of the flags it read in its own entry; the union
+// over tasks is serial (a few hundred entries, not a pass over the table).
 std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
     const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
     const dGeomID* src = geoms.data();
-    // Each task ORs the flags it wrote into its own entry; the union over
-    // tasks is serial (a few hundred entries, not a pass over the table).
     const std::size_t blocks = task_count(n, 1024);
     std::vector<std::uint32_t> any(blocks, 0);
     std::uint32_t* flags = any.data();
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, src, n, blocks, flags)
-    for (std::size_t b = 0; b < blocks; ++b) {
-        std::uint32_t f = 0;
-        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
-            dst[i] = read_geom(src[i], true);
-            f |= dst[i].flags;
-        }
-        flags[b] = f;
-    }
-    std::uint32_t all = 0;
-    for (std::uint32_t f : any) all |= f;
-    return all;
+    for (std::size_t b = 0; b < blocks; ++b) flags[b] = read_range(src, dst, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
+    return union_of(any);
 }
 
 std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
@@ -144,19 +155,10 @@ std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
         const std::size_t begin = task_begin(n, blocks, b), end = task_begin(n, blocks, b + 1);
         for (std::size_t i = begin; i < end; ++i) src[i] = dSpaceGetGeom(space, static_cast<int>(i));
 #pragma omp task default(none) firstprivate(src, dst, flags, b, begin, end)
-        {
-            std::uint32_t f = 0;
-            for (std::size_t i = begin; i < end; ++i) {
-                dst[i] = read_geom(src[i], true);
-                f |= dst[i].flags;
-            }
-            flags[b] = f;
-        }
+        flags[b] = read_range(src, dst, begin, end);
     }
 #pragma omp taskwait
-    std::uint32_t all = 0;
-    for (std::uint32_t f : any) all |= f;
-    return all;
+    return union_of(any);
 }
 
 }  // namespace parode::omp

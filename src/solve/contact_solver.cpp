@@ -438,7 +438,7 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
 }
 
 void ContactSolver::commit(World& world) const {
-    world.mark_moved_owned(0, bodies_.size());  // serial: moves geoms in the space's list
+    world.mark_moved_owned();  // serial: moves geoms in the space's list
 }
 
 void ContactSolver::step(World& world, const ContactBuffer& contacts) {

@@ -13,23 +13,25 @@
 
 namespace parode {
 
+// Room for n elements: a fresh buffer (the old one freed first) when n
+// exceeds the capacity; the contents are then lost.
+template <class V>
+void scratch_reserve(V& v, std::size_t n) {
+    if (n <= v.capacity()) return;
+    V().swap(v);
+    v.reserve(n + n / 4);
+    advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
+}
+
 template <class V>
 void scratch_resize(V& v, std::size_t n) {
-    if (n > v.capacity()) {
-        V().swap(v);
-        v.reserve(n + n / 4);
-        advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
-    }
+    scratch_reserve(v, n);
     v.resize(n);
 }
 
 template <class V, class T>
 void scratch_assign(V& v, std::size_t n, const T& value) {
-    if (n > v.capacity()) {
-        V().swap(v);
-        v.reserve(n + n / 4);
-        advise_huge_pages(v.data(), v.capacity() * sizeof(*v.data()));
-    }
+    scratch_reserve(v, n);
     v.assign(n, value);
 }
 

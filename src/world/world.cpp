@@ -240,13 +240,14 @@ void World::mark_moved(std::size_t local) {
     for (dGeomID g = dBodyGetFirstGeom(bodies_[local]); g; g = dBodyGetNextGeom(g)) dGeomMoved(g);
 }
 
-void World::mark_moved_owned(std::size_t begin, std::size_t end) {
+void World::mark_moved_owned() {
+    const std::size_t end = bodies_.size();
     constexpr std::size_t kBodyAhead = 16, kGeomAhead = 8;  // the geom's address is read from its body
     const auto warm = [](const void* p) {
         __builtin_prefetch(p, 1);
         __builtin_prefetch(static_cast<const char*>(p) + 64, 1);
     };
-    for (std::size_t i = begin; i < end; ++i) {
+    for (std::size_t i = 0; i < end; ++i) {
         if (i + kBodyAhead < end) warm(bodies_[i + kBodyAhead]);
         if (i + kGeomAhead < end) {
             if (dGeomID g = dBodyGetFirstGeom(bodies_[i + kGeomAhead])) warm(g);

@@ -112,10 +112,10 @@ public:
     // which ODE's own spaces' pair order depends.
     void write_pose(std::size_t local, const double x[3], const double q[4]);
     void mark_moved(std::size_t local);
-    // mark_moved for every owned body in [begin, end), in body order. The pass
-    // is serial and waits on memory (an ODE body and its geom per call), so it
-    // asks for the records a few bodies ahead.
-    void mark_moved_owned(std::size_t begin, std::size_t end);
+    // mark_moved for every owned body, in body order. The pass is serial and
+    // waits on memory (an ODE body and its geom per call), so it asks for the
+    // records a few bodies ahead.
+    void mark_moved_owned();
     // Sets a body from a saved state; true when ODE then holds exactly the
     // quaternion `ode_q` it held when the state was saved.
     bool restore_state(std::size_t local, const BodyState& s, const double ode_q[4]);
