@@ -23,16 +23,11 @@
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
+#include "util/text.hpp"
 
 namespace parode::cli {
 
 namespace {
-
-std::string text(double x) {
-    std::ostringstream os;
-    os << x;
-    return os.str();
-}
 
 // Whole-string integer parse: "12" yes; "12abc", "1.5", "" no.
 bool parse_long(const std::string& s, long& out) {
@@ -57,7 +52,7 @@ CLI::Validator int_in(long lo, long hi) {
 }
 
 CLI::Validator number_in(double lo, double hi) {
-    const std::string range = "[" + text(lo) + ", " + text(hi) + "]";
+    const std::string range = "[" + short_number(lo) + ", " + short_number(hi) + "]";
     return CLI::Validator(
         [lo, hi, range](std::string& s) -> std::string {
             char* end = nullptr;

@@ -7,14 +7,10 @@
 #include <cmath>
 #include <sstream>
 
+#include "util/text.hpp"
+
 namespace parode::limits {
 namespace {
-
-std::string num(double x) {
-    std::ostringstream os;
-    os << x;
-    return os.str();
-}
 
 // The table that declared body `i`: its [[bodies]] entry or the [catoms] table.
 Node body_table(const Node& root, std::size_t i, std::size_t hand_written) {
@@ -29,17 +25,17 @@ std::string body_label(const Scene& sc, std::size_t i, std::size_t hand_written)
 }  // namespace
 
 std::string coordinate_text() {
-    return "an array of 3 numbers, each in [-" + num(kMaxCoordinate) + ", " + num(kMaxCoordinate) + "] (m)";
+    return "an array of 3 numbers, each in [-" + short_number(kMaxCoordinate) + ", " + short_number(kMaxCoordinate) + "] (m)";
 }
 
 std::string speed_text(double dt) {
-    return "an array of 3 numbers of length <= " + num(max_speed(dt)) + " (m/s: at most " + num(kMaxStepTravel) +
-           " m per step of dt = " + num(dt) + " s)";
+    return "an array of 3 numbers of length <= " + short_number(max_speed(dt)) + " (m/s: at most " + short_number(kMaxStepTravel) +
+           " m per step of dt = " + short_number(dt) + " s)";
 }
 
 std::string turn_rate_text(double dt) {
-    return "an array of 3 numbers of length <= " + num(max_turn_rate(dt)) + " (rad/s: at most one revolution per step of dt = " +
-           num(dt) + " s)";
+    return "an array of 3 numbers of length <= " + short_number(max_turn_rate(dt)) + " (rad/s: at most one revolution per step of dt = " +
+           short_number(dt) + " s)";
 }
 
 Range joint_param_range(const std::string& name) {
@@ -64,9 +60,9 @@ void check_mass_ratio(const Node& root, const Scene& sc, std::size_t hand_writte
     const double lo = mass(light), hi = mass(heavy);
     if (hi <= kMaxMassRatio * lo) return;
     body_table(root, heavy, hand_written)
-        .fail_value("mass", "a mass at most " + num(kMaxMassRatio) + " times the lightest body's (" +
-                                body_label(sc, light, hand_written) + ", " + num(lo) + " kg)",
-                    num(hi));
+        .fail_value("mass", "a mass at most " + short_number(kMaxMassRatio) + " times the lightest body's (" +
+                                body_label(sc, light, hand_written) + ", " + short_number(lo) + " kg)",
+                    short_number(hi));
 }
 
 // The prism's corners bound every catom (plus the jitter).
@@ -83,9 +79,9 @@ void check_catom_extent(const Node& root, const Scene& sc, std::size_t /*hand_wr
     }
     if (reach <= kMaxCoordinate) return;
     root.at("catoms").fail_value("spacing",
-                                 "a prism inside the coordinate bound (|x|, |y|, |z| <= " + num(kMaxCoordinate) +
+                                 "a prism inside the coordinate bound (|x|, |y|, |z| <= " + short_number(kMaxCoordinate) +
                                      " m)",
-                                 "a prism of " + std::to_string(c.count) + " catoms that reaches " + num(reach) + " m");
+                                 "a prism of " + std::to_string(c.count) + " catoms that reaches " + short_number(reach) + " m");
 }
 
 }  // namespace parode::limits
