@@ -7,7 +7,10 @@ and repeated, medians kept.
 
 Per run it records from the JSON run report: ms per step, the stages collide,
 solve and observe and their substages (build, warm_start, sweeps, integrate;
-refresh, broadphase, narrowphase, merge) in ms per step, peak memory per catom,
+refresh, broadphase, narrowphase, merge) in ms per step, the same for the
+first step alone and for the later steps (the first pays one-time costs: the
+first touch of every per-step buffer, which on a virtual machine that hands
+freed memory back to its host runs at a fraction of memory speed), peak memory per catom,
 contacts per step and the state hash; and from the operating system the CPU
 seconds the run used (wall time on a shared machine counts other people's
 work; CPU time does not) and the load average when it started.
@@ -63,6 +66,26 @@ def run(binary, scene, n, threads, steps):
     for s, subs in SUBSTAGES.items():
         for sub in subs:
             row[f"{s}.{sub}_ms"] = 1e3 * r.get("substages", {}).get(s, {}).get(sub, float("nan")) / r["steps"]
+    row.update(later_steps(r))
+    return row
+
+
+def later_steps(r):
+    """ms per step of the first step and of the later ones (reports that have
+    "first_step" and more than one step; others give nothing)."""
+    first, steps = r.get("first_step"), r["steps"]
+    if not first or steps < 2:
+        return {}
+    wall = r.get("steps_wall_s", r["wall_s"])
+    row = {"first_ms": 1e3 * first["wall_s"], "later_ms_per_step": 1e3 * (wall - first["wall_s"]) / (steps - 1)}
+    for s in STAGES:
+        row[f"first.{s}_ms"] = 1e3 * first["stages"][s]
+        row[f"later.{s}_ms"] = 1e3 * (r["stages"][s] - first["stages"][s]) / (steps - 1)
+    for s, subs in SUBSTAGES.items():
+        for sub in subs:
+            total = r.get("substages", {}).get(s, {}).get(sub)
+            if total is not None:
+                row[f"later.{s}.{sub}_ms"] = 1e3 * (total - first["substages"][s][sub]) / (steps - 1)
     return row
 
 
@@ -76,18 +99,22 @@ def summarise(rows, sizes, threads):
                 if not xs:
                     continue
                 keys = [k for k in xs[0] if k.endswith("_ms") or k in (
-                    "ms_per_step", "bytes_per_catom", "process_cpu_s", "contacts_per_step")]
+                    "ms_per_step", "later_ms_per_step", "bytes_per_catom", "process_cpu_s", "contacts_per_step")]
                 s = {"catoms": n, "threads": t, "build": build, "runs": len(xs)}
                 s.update({k: med(xs, k) for k in keys})
                 s["step_ns_per_catom_core"] = 1e6 * s["ms_per_step"] * t / n
                 s["collide_ns_per_catom_core"] = 1e6 * s["collide_ms"] * t / n
+                if "later.collide_ms" in s:
+                    s["later_collide_ns_per_catom_core"] = 1e6 * s["later.collide_ms"] * t / n
                 s["hashes"] = " ".join(sorted({x["state_hash"] for x in xs}))
                 out.append(s)
     for s in out:  # ratios: against the baseline, and 1 -> 2 threads
         base = next((b for b in out if b["catoms"] == s["catoms"] and b["threads"] == s["threads"]
                      and b["build"] == "baseline"), None)
         one = next((b for b in out if b["catoms"] == s["catoms"] and b["threads"] == 1 and b["build"] == s["build"]), None)
-        for k in ["ms_per_step"] + [f"{x}_ms" for x in STAGES]:
+        for k in ["ms_per_step"] + [f"{x}_ms" for x in STAGES] + ["later_ms_per_step"] + [f"later.{x}_ms" for x in STAGES]:
+            if k not in s:
+                continue
             s[f"{k}_baseline_over_new"] = base[k] / s[k] if base and s["build"] == "new" and s[k] > 0 else ""
             s[f"{k}_speedup_vs_1t"] = one[k] / s[k] if one and s[k] > 0 else ""
         s["memory_baseline_over_new"] = base["bytes_per_catom"] / s["bytes_per_catom"] if base and s["build"] == "new" else ""
@@ -118,6 +145,12 @@ def print_table(summary):
         if s["build"] == "new":
             for st, subs in SUBSTAGES.items():
                 print(" " * 21 + f"{st}: " + ", ".join(f"{x} {s[f'{st}.{x}_ms']:.1f}" for x in subs))
+        if "later_ms_per_step" in s:
+            print(" " * 21 + f"first step {s['first_ms']:.1f} ms (collide {s['first.collide_ms']:.1f}); later steps "
+                  f"{s['later_ms_per_step']:.1f} ms/step: collide {s['later.collide_ms']:.1f}, solve "
+                  f"{s['later.solve_ms']:.1f}, observe {s['later.observe_ms']:.1f}; collide "
+                  f"{s['later_collide_ns_per_catom_core']:.0f} ns/catom/core; x 1t "
+                  f"{fmt(s['later_ms_per_step_speedup_vs_1t'], '.2f')}")
 
 
 def main():

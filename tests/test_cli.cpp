@@ -148,6 +148,15 @@ TEST_F(Cli, ReportHasEveryKey) {
         EXPECT_GE(j["stages"][s].get<double>(), 0.0) << s;
         EXPECT_TRUE(j.at("stages_run").contains(s)) << s;
     }
+    // The first step alone: part of the run's stages, its collision (run while
+    // the pipeline was built) included, and less solving than 20 steps.
+    const auto& first = j.at("first_step");
+    EXPECT_GT(first.at("wall_s").get<double>(), 0.0);
+    EXPECT_LT(first["wall_s"].get<double>(), j["steps_wall_s"].get<double>());
+    EXPECT_GE(first.at("stages").at("collide").get<double>(),
+              j["steps_wall_s"].get<double>() - j["wall_s"].get<double>() - 1e-9);
+    EXPECT_LT(first["stages"].at("solve").get<double>(), j["stages"]["solve"].get<double>());
+    for (const auto& [s, v] : first["stages"].items()) EXPECT_LE(v.get<double>(), j["stages"].at(s).get<double>()) << s;
     EXPECT_GT(j.at("contacts_per_step").get<double>(), 0.0) << "the bottom balls touch the floor";
     EXPECT_TRUE(std::regex_match(j.at("state_hash").get<std::string>(), std::regex("[0-9a-f]{16}")))
         << j["state_hash"];

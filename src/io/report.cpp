@@ -88,11 +88,13 @@ const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() 
     return names;
 }
 
-// Collective: stage -> substage -> seconds (the slowest process's).
-nlohmann::json substages_json(const Domain& domain, const Pipeline& p) {
+// Collective: stage -> substage -> seconds (the slowest process's), of the
+// timers `of` gives for a stage (null: the stage has none).
+template <class Of>
+nlohmann::json substages_json(const Domain& domain, Of&& of) {
     nlohmann::json out = nlohmann::json::object();
     for (const auto& [stage, names] : substage_names()) {
-        const Substages* s = p.substages(stage);
+        const Substages* s = of(stage);
         if (!s) continue;
         nlohmann::json j = nlohmann::json::object();
         for (const char* name : names) {
@@ -105,6 +107,21 @@ nlohmann::json substages_json(const Domain& domain, const Pipeline& p) {
         out[stage_name(stage)] = j;
     }
     return out;
+}
+
+// Collective: the first step's wall, stages and substages (Pipeline::StepTimes),
+// the slowest process's each; null before any step.
+nlohmann::json first_step_json(const Domain& domain, const Pipeline& p) {
+    const Pipeline::StepTimes& t = p.first_step_times();
+    if (!domain.max(t.done ? 1.0 : 0.0)) return nullptr;
+    nlohmann::json stages = nlohmann::json::object();
+    for (int s = 0; s < kStageCount; ++s) stages[stage_name(static_cast<Stage>(s))] = domain.max(t.stages[static_cast<std::size_t>(s)]);
+    auto of = [&](Stage s) -> const Substages* {
+        if (s == Stage::Collide && p.substages(s)) return &t.collide;
+        if (s == Stage::Solve && p.substages(s)) return &t.solve;
+        return nullptr;
+    };
+    return {{"wall_s", domain.max(t.wall)}, {"stages", stages}, {"substages", substages_json(domain, of)}};
 }
 
 // The summary lines of a stage's substages, indented under it.
@@ -159,7 +176,8 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["stages"] = stages;
     r["stage_ranks"] = ranks;
     r["stages_run"] = ran;
-    r["substages"] = substages_json(domain, p);
+    r["substages"] = substages_json(domain, [&](Stage s) { return p.substages(s); });
+    r["first_step"] = first_step_json(domain, p);
     const auto contacts = domain.sum(static_cast<std::int64_t>(p.totals().contacts));
     // The totals cover the whole run, a restarted one's included.
     r["contacts_per_step"] = p.steps_done() ? static_cast<double>(contacts) / p.steps_done() : 0.0;

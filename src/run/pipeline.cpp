@@ -145,6 +145,7 @@ void Pipeline::timed(Stage s, F&& f) {
 }
 
 void Pipeline::step() {
+    const double t0 = now_seconds();
     timed(Stage::Migrate, [this] { run_migrate(); });
     timed(Stage::Exchange, [this] {
         domain_->exchange_states(*world_);
@@ -166,6 +167,15 @@ void Pipeline::step() {
     });
     if (steps_ % scene_.observe_every == 0) timed(Stage::Observe, [this] { run_observe(); });
     if (snapshot_every_ > 0 && steps_ % snapshot_every_ == 0) timed(Stage::Output, [this] { run_output(); });
+    if (steps_ == first_step_ + 1) record_first_step(now_seconds() - t0 + collide_before_steps());
+}
+
+void Pipeline::record_first_step(double wall) {
+    first_times_.done = true;
+    first_times_.wall = wall;
+    for (int s = 0; s < kStageCount; ++s) first_times_.stages[static_cast<std::size_t>(s)] = stages_[static_cast<std::size_t>(s)].seconds;
+    if (const Substages* c = substages(Stage::Collide)) first_times_.collide = *c;
+    if (const Substages* v = substages(Stage::Solve)) first_times_.solve = *v;
 }
 
 void Pipeline::finish() {

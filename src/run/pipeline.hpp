@@ -23,6 +23,7 @@
 #include "solve/solver.hpp"
 #include "io/snapshot.hpp"
 #include "io/trajectory.hpp"
+#include "util/substages.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -102,6 +103,17 @@ public:
     double collide_before_steps() const { return collide_reused_ ? setup_collide_s_ : 0.0; }
     // The substage timers of a stage's backend (collide, solve), or null.
     const Substages* substages(Stage s) const;
+    // The first step of this run alone (its collision included where it ran
+    // while the pipeline was built): it pays one-time costs the later steps
+    // do not (first touch of the step's buffers, the growth of the pile's
+    // contacts), so the report shows it apart. Empty until that step is done.
+    struct StepTimes {
+        bool done = false;
+        double wall = 0;
+        std::array<double, kStageCount> stages{};
+        Substages collide, solve;
+    };
+    const StepTimes& first_step_times() const { return first_times_; }
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
@@ -145,6 +157,8 @@ private:
     std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
     double setup_collide_s_ = 0;          // the collision run by the constructor
     bool collide_reused_ = false;         // the first step solved those contacts
+    StepTimes first_times_;
+    void record_first_step(double wall);
 };
 
 }  // namespace parode
