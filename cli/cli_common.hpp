@@ -116,6 +116,13 @@ struct LatencyArgs {
     std::string json;
 };
 void add_latency(CLI::App& app, LatencyArgs& a, std::function<int()>& action);
+
+struct MemoryArgs {
+    int mb = 256;
+    int threads = 0;  // 0: OpenMP's maximum
+    std::string json;
+};
+void add_memory(CLI::App& app, MemoryArgs& a, std::function<int()>& action);
 struct InfoArgs {
     std::string scene;
     std::vector<std::string> sets;

@@ -1,5 +1,5 @@
 // The `parode` command line: `parode run SCENE ...`, `parode info SCENE ...`,
-// `parode bench ...`, `parode compare ...`, `parode latency`, `parode --version`.
+// `parode bench ...`, `parode compare ...`, `parode latency`, `parode memory`, `parode --version`.
 // Under mpirun every process runs this; the root prints and writes (processes.hpp).
 // Exit codes (README "Exit codes"):
 //   0  success
@@ -252,12 +252,14 @@ int main(int argc, char** argv) {
     BenchArgs bench_args;
     CompareArgs compare_args;
     LatencyArgs latency_args;
+    MemoryArgs memory_args;
     InfoArgs info_args;
     std::function<int()> action;
     add_run(app, run_args, action);
     add_bench(app, bench_args, action);
     add_compare(app, compare_args, action);
     add_latency(app, latency_args, action);
+    add_memory(app, memory_args, action);
     add_info(app, info_args, action);
     try {
         app.parse(argc, argv);

@@ -2,8 +2,9 @@
 """Scaling benchmark: tennis at 8,000 / 64,000 / 100,000 / 1,000,000 catoms,
 grid collision and the parallel solver, the first STEPS steps, on 1 and 2
 threads, this build side by side with a baseline build (the same command line
-on an older parode), runs interleaved (new, baseline; 1 thread, 2 threads)
-and repeated, medians kept.
+on an older parode), runs interleaved (new, baseline; 1 thread, 2 threads;
+the order rotated from one repeat to the next, so that no variant always
+follows another's freed memory) and repeated, medians kept.
 
 Per run it records from the JSON run report: ms per step, the stages collide,
 solve and observe and their substages (build, warm_start, sweeps, integrate;
@@ -14,6 +15,11 @@ freed memory back to its host runs at a fraction of memory speed), peak memory p
 contacts per step and the state hash; and from the operating system the CPU
 seconds the run used (wall time on a shared machine counts other people's
 work; CPU time does not) and the load average when it started.
+
+Before and after the runs it measures the machine (`parode memory`: triad
+bandwidth on 1 and 2 threads, first-touch rate of fresh memory) into
+scale_machine.json: on a shared virtual machine these move from day to day and
+decide how the figures read.
 
 Writes analysis/results/scale_runs.csv (every run) and scale.csv (medians per
 size, threads and build, with ns per catom per core, the ratio against the
@@ -87,6 +93,13 @@ def later_steps(r):
             if total is not None:
                 row[f"later.{s}.{sub}_ms"] = 1e3 * (total - first["substages"][s][sub]) / (steps - 1)
     return row
+
+
+def probe_machine(binary, threads):
+    """`parode memory` on up to `threads` threads, printed and returned."""
+    with tempfile.NamedTemporaryFile(suffix=".json") as f:
+        subprocess.run([binary, "memory", "--threads", str(threads), "--json", f.name], check=True)
+        return json.load(open(f.name))
 
 
 def summarise(rows, sizes, threads):
@@ -167,17 +180,21 @@ def main():
     sizes = [int(x) for x in a.sizes.split(",")]
     threads = [int(x) for x in a.threads.split(",")]
     builds = [("new", a.parode)] + ([("baseline", a.baseline)] if a.baseline else [])
+    os.makedirs(a.out, exist_ok=True)
+    machine = {"before": probe_machine(a.parode, max(threads))}
     rows = []
+    combos = [(t, name, binary) for t in threads for name, binary in builds]
     for n in sizes:
         for rep in range(a.repeats):
-            for t in threads:
-                for name, binary in builds:
-                    r = run(binary, a.scene, n, t, a.steps)
-                    r["build"], r["repeat"] = name, rep
-                    rows.append(r)
-                    print(f"  {name:8} {n:>8} catoms {t} thread(s): {r['ms_per_step']:.1f} ms/step "
-                          f"(load {r['load']:.2f})", flush=True)
-    os.makedirs(a.out, exist_ok=True)
+            for t, name, binary in combos[rep % len(combos):] + combos[:rep % len(combos)]:
+                r = run(binary, a.scene, n, t, a.steps)
+                r["build"], r["repeat"] = name, rep
+                rows.append(r)
+                print(f"  {name:8} {n:>8} catoms {t} thread(s): {r['ms_per_step']:.1f} ms/step "
+                      f"(load {r['load']:.2f})", flush=True)
+    machine["after"] = probe_machine(a.parode, max(threads))
+    with open(os.path.join(a.out, "scale_machine.json"), "w") as f:
+        json.dump(machine, f, indent=1)
     write_csv(os.path.join(a.out, "scale_runs.csv"), rows)
     summary = summarise(rows, sizes, threads)
     write_csv(os.path.join(a.out, "scale.csv"), summary)

@@ -171,6 +171,26 @@ TEST_F(Cli, ReportHasEveryKey) {
     EXPECT_EQ(b.at("precision"), "double");
 }
 
+// `parode memory` measures the triad on 1..T threads and five fresh mappings
+// each in 4 KB and 2 MB pages; rates are finite and positive.
+TEST_F(Cli, MemoryProbeMeasuresEveryThreadCount) {
+    const fs::path path = dir_ / "memory.json";
+    const Result r = parode("memory --mb 4 --threads 2 --json '" + path.string() + "'");
+    ASSERT_EQ(r.rc, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(slurp(path));
+    EXPECT_EQ(j.at("threads"), nlohmann::json({1, 2}));
+    ASSERT_EQ(j.at("triad_gb_s").size(), 2u);
+    for (const char* k : {"triad_gb_s", "first_touch_gb_s", "first_touch_huge_gb_s"}) {
+        for (const auto& v : j.at(k)) {
+            EXPECT_GT(v.get<double>(), 0.0) << k;
+            EXPECT_LT(v.get<double>(), 1e5) << k;
+        }
+    }
+    EXPECT_EQ(j.at("first_touch_gb_s").size(), 5u);
+    EXPECT_NE(r.out.find("triad, 2 thread(s):"), std::string::npos) << r.out;
+    EXPECT_EQ(parode("memory --threads 0").rc, 2);
+}
+
 TEST_F(Cli, StagesRunFollowTheScene) {
     const nlohmann::json plain = report(kTennis);
     EXPECT_EQ(plain.at("stages_run").at("forces").at("ran"), false);
