@@ -15,22 +15,36 @@ bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
     return aabb_overlap(a.aabb, b.aabb) & !(a.body && a.body == b.body) & bits;
 }
 
-// Candidates of sorted geom a: appended at out[n], n advanced past the passing ones.
-std::size_t collect(const PairInputs& in, std::size_t a, Candidate* out, std::size_t n) {
-    const CellGrid& g = *in.grid;
-    const GridEntry* e = g.entries();
-    const std::uint64_t k = g.key(a);
-    const auto ua = static_cast<std::uint32_t>(a);
-    std::uint32_t b0 = 0, b1 = 0;
-    g.range(k, k + 1, b0, b1);
-    for (std::uint32_t b = ua + 1; b < b1; ++b) {
-        out[n] = Candidate(ua, b);
-        n += passes(in, e[a], e[b]);
+// The spans of sorted positions geom a is tested against: the later geoms of
+// its cell and the next, then the four forward rows of the half stencil.
+struct Spans {
+    std::uint32_t begin[5], end[5];
+    std::size_t total() const {
+        std::size_t m = 0;
+        for (int r = 0; r < 5; ++r) m += end[r] - begin[r];
+        return m;
     }
+};
+
+Spans spans_of(const CellGrid& g, std::size_t a) {
+    Spans s;
+    const std::uint64_t k = g.key(a);
+    std::uint32_t b0 = 0;
+    g.range(k, k + 1, b0, s.end[0]);
+    s.begin[0] = static_cast<std::uint32_t>(a) + 1;
     for (int r = 0; r < 4; ++r) {
         const std::uint64_t c = k + g.row_offsets()[r];
-        g.range(c - 1, c + 1, b0, b1);
-        for (std::uint32_t b = b0; b < b1; ++b) {
+        g.range(c - 1, c + 1, s.begin[r + 1], s.end[r + 1]);
+    }
+    return s;
+}
+
+// Candidates of sorted geom a: appended at out[n], n advanced past the passing ones.
+std::size_t collect(const PairInputs& in, std::size_t a, const Spans& sp, Candidate* out, std::size_t n) {
+    const GridEntry* e = in.grid->entries();
+    const auto ua = static_cast<std::uint32_t>(a);
+    for (int r = 0; r < 5; ++r) {
+        for (std::uint32_t b = sp.begin[r]; b < sp.end[r]; ++b) {
             out[n] = Candidate(ua, b);
             n += passes(in, e[a], e[b]);
         }
@@ -42,27 +56,13 @@ std::size_t collect(const PairInputs& in, std::size_t a, Candidate* out, std::si
     return n;
 }
 
-// Most candidates a geom can have: the spans collect walks.
-std::size_t bound(const PairInputs& in, std::size_t a) {
-    const CellGrid& g = *in.grid;
-    const std::uint64_t k = g.key(a);
-    std::uint32_t b0 = 0, b1 = 0;
-    g.range(k, k + 1, b0, b1);
-    std::size_t m = b1 - a - 1 + in.nbig;
-    for (int r = 0; r < 4; ++r) {
-        const std::uint64_t c = k + g.row_offsets()[r];
-        g.range(c - 1, c + 1, b0, b1);
-        m += b1 - b0;
-    }
-    return m;
-}
-
 void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vector<Candidate>& cand) {
     std::size_t n = 0;
     for (std::size_t a = a0; a < a1; ++a) {
-        const std::size_t need = n + bound(in, a);
+        const Spans sp = spans_of(*in.grid, a);
+        const std::size_t need = n + sp.total() + in.nbig;  // the most candidates a can have
         if (need > cand.size()) cand.resize(std::max(need, 2 * cand.size()));
-        n = collect(in, a, cand.data(), n);
+        n = collect(in, a, sp, cand.data(), n);
     }
     cand.resize(n);
 }
