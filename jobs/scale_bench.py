@@ -128,7 +128,7 @@ def summarise(rows, sizes, threads):
         for k in ["ms_per_step"] + [f"{x}_ms" for x in STAGES] + ["later_ms_per_step"] + [f"later.{x}_ms" for x in STAGES]:
             if k not in s:
                 continue
-            s[f"{k}_baseline_over_new"] = base[k] / s[k] if base and s["build"] == "new" and s[k] > 0 else ""
+            s[f"{k}_baseline_over_new"] = base[k] / s[k] if base and k in base and s["build"] == "new" and s[k] > 0 else ""
             s[f"{k}_speedup_vs_1t"] = one[k] / s[k] if one and s[k] > 0 else ""
         s["memory_baseline_over_new"] = base["bytes_per_catom"] / s["bytes_per_catom"] if base and s["build"] == "new" else ""
     return out
@@ -166,6 +166,42 @@ def print_table(summary):
                   f"{fmt(s['later_ms_per_step_speedup_vs_1t'], '.2f')}")
 
 
+def read_runs(path):
+    """scale_runs.csv back into rows (numbers as numbers, missing fields dropped)."""
+    rows = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            row = {}
+            for k, v in r.items():
+                if v == "":
+                    continue
+                try:
+                    row[k] = int(v) if k in ("catoms", "threads", "repeat") else float(v)
+                except ValueError:
+                    row[k] = v
+            rows.append(row)
+    return rows
+
+
+def summarise_runs(out):
+    rows = read_runs(os.path.join(out, "scale_runs.csv"))
+    sizes = sorted({r["catoms"] for r in rows})
+    threads = sorted({r["threads"] for r in rows})
+    summary = summarise(rows, sizes, threads)
+    write_csv(os.path.join(out, "scale.csv"), summary)
+    print_table(summary)
+    print_hashes(rows)
+
+
+def print_hashes(rows):
+    """One state hash per size and build, whatever the thread count."""
+    for n in sorted({r["catoms"] for r in rows}):
+        for name in dict.fromkeys(r["build"] for r in rows):
+            hashes = {r["state_hash"] for r in rows if r["catoms"] == n and r["build"] == name}
+            print(f"{name} {n} catoms: state hash {'identical on every thread count' if len(hashes) == 1 else 'DIFFERS'}"
+                  f" ({' '.join(sorted(hashes))})")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--parode", default=os.path.join(ROOT, "build/ci/parode"))
@@ -176,7 +212,11 @@ def main():
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(ROOT, "analysis/results"))
+    ap.add_argument("--summarise-only", action="store_true",
+                    help="no runs: summarise OUT/scale_runs.csv again (after changing the summary)")
     a = ap.parse_args()
+    if a.summarise_only:
+        return summarise_runs(a.out)
     sizes = [int(x) for x in a.sizes.split(",")]
     threads = [int(x) for x in a.threads.split(",")]
     builds = [("new", a.parode)] + ([("baseline", a.baseline)] if a.baseline else [])
@@ -199,11 +239,7 @@ def main():
     summary = summarise(rows, sizes, threads)
     write_csv(os.path.join(a.out, "scale.csv"), summary)
     print_table(summary)
-    for n in sizes:
-        for name, _ in builds:
-            hashes = {r["state_hash"] for r in rows if r["catoms"] == n and r["build"] == name}
-            print(f"{name} {n} catoms: state hash {'identical on every thread count' if len(hashes) == 1 else 'DIFFERS'}"
-                  f" ({' '.join(sorted(hashes))})")
+    print_hashes(rows)
 
 
 if __name__ == "__main__":
