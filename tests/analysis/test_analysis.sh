@@ -62,6 +62,17 @@ case "$CASE" in
     "$BUILD/parode" run "$ROOT/jobs/scenes/buggy.toml" --duration 22 --snapshot "$WORK/buggy.csv" --snapshot-every 10 -q
     python3 "$ROOT/analysis/buggy_path.py" "$WORK/buggy.csv" --out "$WORK/buggy.png" >"$WORK/out.txt"
     have buggy.png ;;
+  scale_bench)  # the committed runs summarised again, then a small run of the built parode
+    cp "$ROOT/analysis/results/scale_runs.csv" "$WORK/"
+    python3 "$ROOT/jobs/scale_bench.py" --summarise-only --out "$WORK" >"$WORK/out.txt"
+    have scale.csv
+    expect "^ 1000000   2      new     985.1 "
+    expect "later steps 929.4 ms/step"
+    expect "^new 1000000 catoms: state hash identical on every thread count"
+    python3 "$ROOT/jobs/scale_bench.py" --parode "$BUILD/parode" --sizes 1000 --repeats 2 --out "$WORK/small" >"$WORK/out.txt"
+    for f in scale.csv scale_runs.csv scale_machine.json; do [ -s "$WORK/small/$f" ] || fail "$f was not written"; done
+    expect "first step [0-9.]+ ms \\(collide [0-9.]+\\); later steps [0-9.]+ ms/step"
+    expect "^new 1000 catoms: state hash identical on every thread count" ;;
   *) echo "test_analysis.sh: unknown case '$CASE'" >&2; exit 2 ;;
 esac
 echo "ok: $CASE"
