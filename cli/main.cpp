@@ -24,6 +24,7 @@
 #include <sstream>
 
 #include "cli_common.hpp"
+#include "util/huge_pages.hpp"
 #include "interrupts.hpp"
 #include "processes.hpp"
 #include "io/error_metrics.hpp"
@@ -267,5 +268,8 @@ int main(int argc, char** argv) {
         const int rc = app.exit(e);
         return rc == 0 ? 0 : kExitUsage;
     }
-    return guarded(action);
+    return guarded([&] {
+        parode::huge_pages_wanted();  // a bad PARODE_HUGE_PAGES stops here, before any work
+        return action ? action() : 0;
+    });
 }

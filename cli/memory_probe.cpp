@@ -115,7 +115,7 @@ int probe(const MemoryArgs& a) {
         // ones, on a host that takes freed memory back lazily, meet memory the
         // previous mapping freed.
         std::printf("first touch, %s pages, %d thread(s): first mapping %.2f GB/s, later ones median %.2f GB/s\n",
-                    huge ? "2 MB" : "4 KB", top, touch.front(), median({touch.begin() + 1, touch.end()}));
+                    huge ? (huge_pages_wanted() ? "2 MB" : "4 KB (PARODE_HUGE_PAGES=0)") : "4 KB", top, touch.front(), median({touch.begin() + 1, touch.end()}));
     }
     j["first_touch_threads"] = top;
     if (!a.json.empty()) write_json(a.json, j);

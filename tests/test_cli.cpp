@@ -62,10 +62,11 @@ protected:
     }
     void TearDown() override { fs::remove_all(dir_); }
 
-    // `parode ARGS` with stdout and stderr captured separately.
-    Result parode(const std::string& args) const {
+    // `parode ARGS` with stdout and stderr captured separately; `env`
+    // ("NAME=value ") is set for that command alone.
+    Result parode(const std::string& args, const std::string& env = "") const {
         const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd = std::string("'") + PARODE_BINARY + "' " + args + " >'" + out.string() + "' 2>'" +
+        const std::string cmd = env + "'" + PARODE_BINARY + "' " + args + " >'" + out.string() + "' 2>'" +
                                 err.string() + "'";
         const int status = std::system(cmd.c_str());
         Result r;
@@ -189,6 +190,20 @@ TEST_F(Cli, MemoryProbeMeasuresEveryThreadCount) {
     EXPECT_EQ(j.at("first_touch_gb_s").size(), 5u);
     EXPECT_NE(r.out.find("triad, 2 thread(s):"), std::string::npos) << r.out;
     EXPECT_EQ(parode("memory --threads 0").rc, 2);
+}
+
+// PARODE_HUGE_PAGES: 0 turns the huge-page advice off (the probe says so),
+// 1 keeps it; anything else stops before any work, naming the variable.
+TEST_F(Cli, HugePagesSwitch) {
+    const Result off = parode("memory --mb 4 --threads 1", "PARODE_HUGE_PAGES=0 ");
+    ASSERT_EQ(off.rc, 0) << off.err;
+    EXPECT_NE(off.out.find("4 KB (PARODE_HUGE_PAGES=0) pages"), std::string::npos) << off.out;
+    const Result on = parode("memory --mb 4 --threads 1", "PARODE_HUGE_PAGES=1 ");
+    ASSERT_EQ(on.rc, 0) << on.err;
+    EXPECT_NE(on.out.find("2 MB pages"), std::string::npos) << on.out;
+    const Result bad = parode("run '" + kTennis + "'" + kSmall, "PARODE_HUGE_PAGES=yes ");
+    EXPECT_EQ(bad.rc, 2) << bad.err;
+    EXPECT_NE(bad.err.find("PARODE_HUGE_PAGES=yes: expected 0"), std::string::npos) << bad.err;
 }
 
 TEST_F(Cli, StagesRunFollowTheScene) {

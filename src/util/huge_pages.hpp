@@ -6,10 +6,15 @@
 // with 2 MB pages where the system allows (the default "madvise" mode).
 // Trade-off: a huge page is zeroed whole on first touch, so a buffer's
 // resident size rounds up to 2 MB steps; below kHugeMin bytes nothing is
-// advised, so small scenes are unaffected.
+// advised, so small scenes are unaffected. PARODE_HUGE_PAGES=0 in the
+// environment turns the advice off (for systems where huge pages cost more
+// than they save, e.g. with memory compaction stalls); 1 or unset: on.
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -20,9 +25,24 @@ namespace parode {
 constexpr std::size_t kHugePage = std::size_t{2} << 20;
 constexpr std::size_t kHugeMin = 2 * kHugePage;
 
+// The value of PARODE_HUGE_PAGES (null: unset) as a switch; throws
+// std::invalid_argument naming the variable unless it is 0, 1 or empty.
+inline bool parse_huge_pages(const char* value) {
+    const std::string v = value ? value : "";
+    if (v.empty() || v == "1") return true;
+    if (v == "0") return false;
+    throw std::invalid_argument("PARODE_HUGE_PAGES=" + v + ": expected 0 (no huge-page advice) or 1 (the default)");
+}
+
+// Whether buffers are advised huge pages: PARODE_HUGE_PAGES, read once.
+inline bool huge_pages_wanted() {
+    static const bool wanted = parse_huge_pages(std::getenv("PARODE_HUGE_PAGES"));
+    return wanted;
+}
+
 inline void advise_huge_pages(const void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-    if (bytes < kHugeMin) return;
+    if (bytes < kHugeMin || !huge_pages_wanted()) return;
     const auto a = reinterpret_cast<std::uintptr_t>(data);
     const std::uintptr_t begin = (a + kHugePage - 1) & ~(kHugePage - 1);
     const std::uintptr_t end = (a + bytes) & ~(kHugePage - 1);
