@@ -19,6 +19,7 @@
 #include "grid_collide.hpp"
 #include "io/output_error.hpp"
 #include "util/hash.hpp"
+#include "util/median.hpp"
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
 
@@ -68,13 +69,6 @@ void record_phases(Variant& v) {
     if (!grid) return;
     const auto& t = grid->engine().last_phase_times();
     v.phases.push_back({t.read, t.build, t.pairs, t.deferred, t.merge, v.seconds.back()});
-}
-
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // Time every variant on the current driver state; returns false if contact sets differ.

@@ -10,8 +10,6 @@
 // Trade-off: medians of a few repeats over arrays of a fixed size, seconds in
 // all; not a substitute for STREAM's full protocol, enough to tell a machine
 // whose bandwidth is shared or whose fresh memory is slow.
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -20,34 +18,17 @@
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 #include "cli_common.hpp"
+#include "register.hpp"
 #include "util/huge_pages.hpp"
+#include "util/median.hpp"
+#include "util/substages.hpp"
 
 namespace parode::cli {
 namespace {
 
 constexpr int kRepeats = 5;
-
-double seconds_now() {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-int max_threads() {
-#ifdef _OPENMP
-    return omp_get_max_threads();
-#else
-    return 1;
-#endif
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
 
 // Median triad GB/s on `threads` threads over arrays of n doubles (each
 // thread first touches the part it later streams, as STREAM does).
@@ -61,10 +42,10 @@ double triad(std::size_t n, int threads) {
     for (long i = 0; i < sn; ++i) pa[i] = 0, pb[i] = 1, pc[i] = 2;
     std::vector<double> rates;
     for (int r = 0; r < kRepeats; ++r) {
-        const double t0 = seconds_now();
+        const double t0 = now_seconds();
 #pragma omp parallel for schedule(static) num_threads(threads)
         for (long i = 0; i < sn; ++i) pa[i] = pb[i] + 3.0 * pc[i];
-        rates.push_back(24.0 * static_cast<double>(n) / (seconds_now() - t0) / 1e9);
+        rates.push_back(24.0 * static_cast<double>(n) / (now_seconds() - t0) / 1e9);
     }
     if (pa[n / 2] != 7.0) throw std::runtime_error("memory probe: the triad computed a wrong value");
     return median(rates);
@@ -87,10 +68,10 @@ std::vector<double> first_touch(std::size_t bytes, int threads, bool huge) {
         char* p = own.get();
 #endif
         const auto pages = static_cast<long>(bytes / 4096);
-        const double t0 = seconds_now();
+        const double t0 = now_seconds();
 #pragma omp parallel for schedule(static) num_threads(threads)
         for (long k = 0; k < pages; ++k) p[k * 4096] = 1;
-        rates.push_back(static_cast<double>(bytes) / (seconds_now() - t0) / 1e9);
+        rates.push_back(static_cast<double>(bytes) / (now_seconds() - t0) / 1e9);
 #if defined(__linux__)
         munmap(m, bytes);
 #endif
@@ -100,7 +81,7 @@ std::vector<double> first_touch(std::size_t bytes, int threads, bool huge) {
 
 int probe(const MemoryArgs& a) {
     const std::size_t n = static_cast<std::size_t>(a.mb) * (std::size_t{1} << 20) / sizeof(double);
-    const int top = a.threads > 0 ? a.threads : max_threads();
+    const int top = a.threads > 0 ? a.threads : omp::max_threads();
     nlohmann::json j = {{"array_mb", a.mb}};
     for (int t = 1; t <= top; ++t) {
         const double gbs = triad(n, t);
@@ -114,8 +95,9 @@ int probe(const MemoryArgs& a) {
         // The first mapping meets memory no process used lately; the later
         // ones, on a host that takes freed memory back lazily, meet memory the
         // previous mapping freed.
+        const char* pages = !huge ? "4 KB" : huge_pages_wanted() ? "2 MB" : "4 KB (PARODE_HUGE_PAGES=0)";
         std::printf("first touch, %s pages, %d thread(s): first mapping %.2f GB/s, later ones median %.2f GB/s\n",
-                    huge ? (huge_pages_wanted() ? "2 MB" : "4 KB (PARODE_HUGE_PAGES=0)") : "4 KB", top, touch.front(), median({touch.begin() + 1, touch.end()}));
+                    pages, top, touch.front(), median({touch.begin() + 1, touch.end()}));
     }
     j["first_touch_threads"] = top;
     if (!a.json.empty()) write_json(a.json, j);

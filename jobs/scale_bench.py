@@ -183,14 +183,17 @@ def read_runs(path):
     return rows
 
 
-def summarise_runs(out):
-    rows = read_runs(os.path.join(out, "scale_runs.csv"))
-    sizes = sorted({r["catoms"] for r in rows})
-    threads = sorted({r["threads"] for r in rows})
+def write_summary(rows, out, sizes, threads):
+    """scale.csv from the runs, the table and the hash check printed."""
     summary = summarise(rows, sizes, threads)
     write_csv(os.path.join(out, "scale.csv"), summary)
     print_table(summary)
     print_hashes(rows)
+
+
+def summarise_runs(out):
+    rows = read_runs(os.path.join(out, "scale_runs.csv"))
+    write_summary(rows, out, sorted({r["catoms"] for r in rows}), sorted({r["threads"] for r in rows}))
 
 
 def print_hashes(rows):
@@ -236,10 +239,7 @@ def main():
     with open(os.path.join(a.out, "scale_machine.json"), "w") as f:
         json.dump(machine, f, indent=1)
     write_csv(os.path.join(a.out, "scale_runs.csv"), rows)
-    summary = summarise(rows, sizes, threads)
-    write_csv(os.path.join(a.out, "scale.csv"), summary)
-    print_table(summary)
-    print_hashes(rows)
+    write_summary(rows, a.out, sizes, threads)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@
 
 #include "collide/collide.hpp"
 #include "collide/contacts.hpp"
+#include "util/median.hpp"
 
 namespace parode::omp {
 namespace {
@@ -83,13 +84,6 @@ double time_call(Config& c, dSpaceID space, int max_contacts) {
     c.backend->collide(space, max_contacts, c.out);
     const auto t1 = std::chrono::steady_clock::now();
     return std::chrono::duration<double>(t1 - t0).count();
-}
-
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    const std::size_t m = v.size() / 2;
-    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
 // Seconds for a fixed amount of square roots spread over `threads` threads.

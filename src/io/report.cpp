@@ -117,9 +117,8 @@ nlohmann::json first_step_json(const Domain& domain, const Pipeline& p) {
     nlohmann::json stages = nlohmann::json::object();
     for (int s = 0; s < kStageCount; ++s) stages[stage_name(static_cast<Stage>(s))] = domain.max(t.stages[static_cast<std::size_t>(s)]);
     auto of = [&](Stage s) -> const Substages* {
-        if (s == Stage::Collide && p.substages(s)) return &t.collide;
-        if (s == Stage::Solve && p.substages(s)) return &t.solve;
-        return nullptr;
+        const std::optional<Substages>& sub = t.substages[static_cast<std::size_t>(s)];
+        return sub ? &*sub : nullptr;
     };
     return {{"wall_s", domain.max(t.wall)}, {"stages", stages}, {"substages", substages_json(domain, of)}};
 }

@@ -173,9 +173,11 @@ void Pipeline::step() {
 void Pipeline::record_first_step(double wall) {
     first_times_.done = true;
     first_times_.wall = wall;
-    for (int s = 0; s < kStageCount; ++s) first_times_.stages[static_cast<std::size_t>(s)] = stages_[static_cast<std::size_t>(s)].seconds;
-    if (const Substages* c = substages(Stage::Collide)) first_times_.collide = *c;
-    if (const Substages* v = substages(Stage::Solve)) first_times_.solve = *v;
+    for (int s = 0; s < kStageCount; ++s) {
+        const auto k = static_cast<std::size_t>(s);
+        first_times_.stages[k] = stages_[k].seconds;
+        if (const Substages* sub = substages(static_cast<Stage>(s))) first_times_.substages[k] = *sub;
+    }
 }
 
 void Pipeline::finish() {

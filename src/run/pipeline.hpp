@@ -11,6 +11,7 @@
 #pragma once
 #include <array>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -111,7 +112,7 @@ public:
         bool done = false;
         double wall = 0;
         std::array<double, kStageCount> stages{};
-        Substages collide, solve;
+        std::array<std::optional<Substages>, kStageCount> substages;  // as Pipeline::substages gives them
     };
     const StepTimes& first_step_times() const { return first_times_; }
 
