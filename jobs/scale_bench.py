@@ -41,6 +41,7 @@ import os
 import resource
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 
@@ -192,7 +193,12 @@ def write_summary(rows, out, sizes, threads):
 
 
 def summarise_runs(out):
-    rows = read_runs(os.path.join(out, "scale_runs.csv"))
+    path = os.path.join(out, "scale_runs.csv")
+    if not os.path.isfile(path):
+        print(f"scale_bench: {path}: no such file (--summarise-only reads the runs a previous call wrote there)",
+              file=sys.stderr)
+        sys.exit(2)
+    rows = read_runs(path)
     write_summary(rows, out, sorted({r["catoms"] for r in rows}), sorted({r["threads"] for r in rows}))
 
 

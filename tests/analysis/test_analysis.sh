@@ -69,6 +69,9 @@ case "$CASE" in
     expect "^ 1000000   2      new     985.1 "
     expect "later steps 929.4 ms/step"
     expect "^new 1000000 catoms: state hash identical on every thread count"
+    rc=0; python3 "$ROOT/jobs/scale_bench.py" --summarise-only --out "$WORK/none" >"$WORK/out.txt" 2>&1 || rc=$?
+    [ "$rc" -eq 2 ] || fail "a missing scale_runs.csv exited $rc"
+    expect "none/scale_runs.csv: no such file"
     python3 "$ROOT/jobs/scale_bench.py" --parode "$BUILD/parode" --sizes 1000 --repeats 2 --out "$WORK/small" >"$WORK/out.txt"
     for f in scale.csv scale_runs.csv scale_machine.json; do [ -s "$WORK/small/$f" ] || fail "$f was not written"; done
     expect "first step [0-9.]+ ms \\(collide [0-9.]+\\); later steps [0-9.]+ ms/step"
