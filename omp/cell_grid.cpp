@@ -180,16 +180,24 @@ void CellGrid::sort_sparse() {
 void CellGrid::fill_entries(const GeomTable& infos,
                             const std::vector<std::uint32_t>& items) {
     const std::size_t n = items.size();
-    entries_.resize(n);
+    static_assert(sizeof(GridTag) == 2 * sizeof(double), "a tag takes two doubles' room");
+    size_ = n;
+    stride_ = (n + kPad + 1) / 2 * 2;
+    columns_.resize(8 * stride_);
     prims_.resize(n);
     keys_.resize(n);
+    double* col = columns_.data();
+    const std::size_t stride = stride_;
+    for (int i = 0; i < 6; ++i) std::fill(col + i * stride + n, col + (i + 1) * stride, 0.0);  // the padding
+    GridTag* tag = reinterpret_cast<GridTag*>(col + 6 * stride);
     const GeomInfo* info = infos.data();
     const std::uint32_t* item = items.data();
-#pragma omp taskloop num_tasks(task_count(n, 2048))
+#pragma omp taskloop num_tasks(task_count(n, 2048)) firstprivate(col, tag, info, item, stride)
     for (std::size_t s = 0; s < n; ++s) {
         const std::uint32_t j = order_[s];
         const GeomInfo& g = info[item[j]];
-        entries_[s] = grid_entry(g, item[j]);
+        for (int i = 0; i < 6; ++i) col[i * stride + s] = g.aabb[i];
+        tag[s] = GridTag{g.body, item[j], g.flags};
         prims_[s] = g.prim;
         keys_[s] = raw_keys_[j];
     }

@@ -2,7 +2,9 @@
 // the minimum corner of its AABB, cells are at least as wide as the largest such
 // AABB, so two overlapping AABBs sit in the same or adjacent cells and a half
 // stencil (the cell itself plus 13 forward neighbours) finds every pair once.
-// Geoms are stored sorted by cell key in compact 64-byte entries. A dense
+// Geoms are stored sorted by cell key, their AABBs as six columns (one per
+// bound, so that the pair search tests several geoms in one vector compare)
+// beside one 16-byte tag each (body, info index, flags): 64 bytes a geom. A dense
 // cell-start table is used when the cells number at most a few per geom,
 // otherwise sorted occupied keys with binary search: memory stays linear in the
 // number of geoms either way.
@@ -23,6 +25,13 @@ namespace parode::omp {
 
 struct alignas(64) GridEntry {
     dReal aabb[6];
+    dBodyID body;
+    std::uint32_t info;   // index into the GeomInfo table
+    std::uint32_t flags;  // GeomFlag bits
+};
+
+// What the pair filter needs of a geom besides its AABB.
+struct GridTag {
     dBodyID body;
     std::uint32_t info;   // index into the GeomInfo table
     std::uint32_t flags;  // GeomFlag bits
@@ -63,7 +72,7 @@ class CellGrid {
 public:
     // Where the sorted entries and prims live (slots kSlotEntries, kSlotPrims).
     void set_scratch(ScratchPool* pool) {
-        entries_.set_pool(pool);
+        columns_.set_pool(pool);
         prims_.set_pool(pool);
     }
     // Sort the geoms `items` (indices into `infos`, all finite) into cells.
@@ -72,8 +81,20 @@ public:
     void build(const GeomTable& infos, const std::vector<std::uint32_t>& items,
                const CellBounds& bounds);
 
-    std::size_t size() const { return entries_.size(); }
-    const GridEntry* entries() const { return entries_.data(); }
+    std::size_t size() const { return size_; }
+    // Bound i (ODE's AABB order: min x, max x, min y, ...) of every sorted
+    // geom; readable one element past the last geom (kPad).
+    const double* bound(int i) const { return columns_.data() + static_cast<std::size_t>(i) * stride_; }
+    const GridTag* tags() const { return reinterpret_cast<const GridTag*>(columns_.data() + 6 * stride_); }
+    GridEntry entry(std::size_t s) const {
+        GridEntry e;
+        for (int i = 0; i < 6; ++i) e.aabb[i] = bound(i)[s];
+        e.body = tags()[s].body;
+        e.info = tags()[s].info;
+        e.flags = tags()[s].flags;
+        return e;
+    }
+    static constexpr std::size_t kPad = 2;
     const PrimData* prims() const { return prims_.data(); }
     std::uint64_t key(std::size_t i) const { return keys_[i]; }
 
@@ -120,7 +141,9 @@ private:
     std::vector<std::uint64_t> ukeys_;     // sparse: occupied keys
     std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
     std::vector<std::uint64_t> keys_;      // per sorted position
-    ScratchArray<GridEntry> entries_{nullptr, kSlotEntries};
+    std::size_t size_ = 0;
+    std::size_t stride_ = 0;  // doubles per column: size_ + kPad, even (16-byte aligned columns)
+    ScratchArray<double> columns_{nullptr, kSlotEntries};  // six bounds, then the tags (two doubles' room each)
     ScratchArray<PrimData> prims_{nullptr, kSlotPrims};
 };
 

@@ -3,16 +3,26 @@
 
 #include <algorithm>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "util/substages.hpp"
 
 namespace parode::omp {
 namespace {
 
-// ODE's collideAABBs filter on two entries; bits beyond the flags from infos.
+// ODE's collideAABBs filter beyond the AABB test: same body, category and
+// collide bits (from the flags, or from infos when they do not fit there).
+bool tags_pass(const PairInputs& in, dBodyID ba, std::uint32_t fa, std::uint32_t ia, dBodyID bb, std::uint32_t fb,
+               std::uint32_t ib) {
+    const bool bits = ((fa | fb) & kWideBits) ? body_and_bits_pass(in.infos[ia], in.infos[ib]) : packed_bits_pass(fa, fb);
+    return !(ba && ba == bb) & bits;
+}
+
+// The complete filter on two entries.
 bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
-    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos[a.info], in.infos[b.info])
-                                                        : packed_bits_pass(a.flags, b.flags);
-    return aabb_overlap(a.aabb, b.aabb) & !(a.body && a.body == b.body) & bits;
+    return aabb_overlap(a.aabb, b.aabb) & tags_pass(in, a.body, a.flags, a.info, b.body, b.flags, b.info);
 }
 
 // The spans of sorted positions geom a is tested against: the later geoms of
@@ -39,32 +49,93 @@ Spans spans_of(const CellGrid& g, std::size_t a) {
     return s;
 }
 
-// Candidates of sorted geom a: appended at out[n], n advanced past the passing ones.
-std::size_t collect(const PairInputs& in, std::size_t a, const Spans& sp, Candidate* out, std::size_t n) {
-    const GridEntry* e = in.grid->entries();
-    const auto ua = static_cast<std::uint32_t>(a);
-    for (int r = 0; r < 5; ++r) {
-        for (std::uint32_t b = sp.begin[r]; b < sp.end[r]; ++b) {
-            out[n] = Candidate(ua, b);
-            n += passes(in, e[a], e[b]);
-        }
+// The AABB columns of the grid and one geom's AABB.
+struct Columns {
+    const double* bound[6];
+    explicit Columns(const CellGrid& g) {
+        for (int i = 0; i < 6; ++i) bound[i] = g.bound(i);
     }
+};
+
+#if defined(__SSE2__)
+// Geom a's AABB against the sorted geoms [b0, b1), two at a time (one
+// compare per bound for both): each is written at out[n], n advanced past
+// those that overlap. Reads one geom past b1 at most (CellGrid::kPad) and
+// writes one candidate past the result. The compares are IEEE, as the
+// scalar ones: the same pairs pass.
+std::size_t overlap_span(const Columns& c, std::size_t a, std::uint32_t b0, std::uint32_t b1, Candidate* out,
+                         std::size_t n) {
+    __m128d lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = _mm_set1_pd(c.bound[2 * k][a]);
+        hi[k] = _mm_set1_pd(c.bound[2 * k + 1][a]);
+    }
+    const auto ua = static_cast<std::uint32_t>(a);
+    for (std::uint32_t b = b0; b < b1; b += 2) {
+        __m128d apart = _mm_setzero_pd();
+        for (int k = 0; k < 3; ++k) {
+            apart = _mm_or_pd(apart, _mm_cmpgt_pd(lo[k], _mm_loadu_pd(c.bound[2 * k + 1] + b)));
+            apart = _mm_or_pd(apart, _mm_cmplt_pd(hi[k], _mm_loadu_pd(c.bound[2 * k] + b)));
+        }
+        const int keep = ~_mm_movemask_pd(apart) & (b + 1 < b1 ? 3 : 1);
+        out[n] = Candidate(ua, b);
+        n += keep & 1;
+        out[n] = Candidate(ua, b + 1);
+        n += keep >> 1;
+    }
+    return n;
+}
+#else
+std::size_t overlap_span(const Columns& c, std::size_t a, std::uint32_t b0, std::uint32_t b1, Candidate* out,
+                         std::size_t n) {
+    double box[6];
+    for (int i = 0; i < 6; ++i) box[i] = c.bound[i][a];
+    const auto ua = static_cast<std::uint32_t>(a);
+    for (std::uint32_t b = b0; b < b1; ++b) {
+        double other[6];
+        for (int i = 0; i < 6; ++i) other[i] = c.bound[i][b];
+        out[n] = Candidate(ua, b);
+        n += aabb_overlap(box, other);
+    }
+    return n;
+}
+#endif
+
+// Candidates of sorted geom a: appended at out[n], n advanced past the
+// passing ones. Grid candidates pass the AABB test only (the narrowphase
+// applies the rest of the filter to the few that do); big-list ones pass all.
+std::size_t collect(const PairInputs& in, const Columns& c, std::size_t a, const Spans& sp, Candidate* out,
+                    std::size_t n) {
+    for (int r = 0; r < 5; ++r) n = overlap_span(c, a, sp.begin[r], sp.end[r], out, n);
+    if (in.nbig == 0) return n;
+    const GridEntry ea = in.grid->entry(a);
+    const auto ua = static_cast<std::uint32_t>(a);
     for (std::size_t j = 0; j < in.nbig; ++j) {
         out[n] = Candidate(ua, static_cast<std::uint32_t>(j) | kBigList);
-        n += passes(in, e[a], in.big[j]);
+        n += passes(in, ea, in.big[j]);
     }
     return n;
 }
 
 void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vector<Candidate>& cand) {
+    const Columns c(*in.grid);
     std::size_t n = 0;
     for (std::size_t a = a0; a < a1; ++a) {
         const Spans sp = spans_of(*in.grid, a);
-        const std::size_t need = n + sp.total() + in.nbig;  // the most candidates a can have
+        const std::size_t need = n + sp.total() + in.nbig + 1;  // the most candidates a can write
         if (need > cand.size()) cand.resize(std::max(need, 2 * cand.size()));
-        n = collect(in, a, sp, cand.data(), n);
+        n = collect(in, c, a, sp, cand.data(), n);
     }
     cand.resize(n);
+}
+
+// Whether grid candidate c passes the filter beyond its AABBs.
+bool candidate_tags_pass(const PairInputs& in, const Candidate& c) {
+    if (c.b & kBigList) return true;  // tested whole by collect
+    const GridTag* t = in.grid->tags();
+    const GridTag& ta = t[c.a];
+    const GridTag& tb = t[c.b];
+    return tags_pass(in, ta.body, ta.flags, ta.info, tb.body, tb.flags, tb.info);
 }
 
 // Sphere pairs: a run when they touch (written, kept only if so); then the
@@ -78,10 +149,10 @@ void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane&
         const PrimData& pa = grid[c.a];
         const PrimData& pb = c.b & kBigList ? in.big_prims[c.b & ~kBigList] : grid[c.b];
         if (!fast_pair(pa.flags, pb.flags)) {
-            l.others.push_back(c);
+            if (candidate_tags_pass(in, c)) l.others.push_back(c);
             continue;
         }
-        const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) &
+        const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) & candidate_tags_pass(in, c) &
                            fast_touch(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0);
         l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), c.a, c.b);
         n += touch;
