@@ -3,10 +3,7 @@
 
 #include <algorithm>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
+#include "aabb_columns.hpp"
 #include "util/substages.hpp"
 
 namespace parode::omp {
@@ -49,62 +46,16 @@ Spans spans_of(const CellGrid& g, std::size_t a) {
     return s;
 }
 
-// The AABB columns of the grid and one geom's AABB.
-struct Columns {
-    const double* bound[6];
-    explicit Columns(const CellGrid& g) {
-        for (int i = 0; i < 6; ++i) bound[i] = g.bound(i);
-    }
-};
-
-#if defined(__SSE2__)
-// Geom a's AABB against the sorted geoms [b0, b1), two at a time (one
-// compare per bound for both): each is written at out[n], n advanced past
-// those that overlap. Reads one geom past b1 at most (CellGrid::kPad) and
-// writes one candidate past the result. The compares are IEEE, as the
-// scalar ones: the same pairs pass.
-std::size_t overlap_span(const Columns& c, std::size_t a, std::uint32_t b0, std::uint32_t b1, Candidate* out,
-                         std::size_t n) {
-    __m128d lo[3], hi[3];
-    for (int k = 0; k < 3; ++k) {
-        lo[k] = _mm_set1_pd(c.bound[2 * k][a]);
-        hi[k] = _mm_set1_pd(c.bound[2 * k + 1][a]);
-    }
-    const auto ua = static_cast<std::uint32_t>(a);
-    for (std::uint32_t b = b0; b < b1; b += 2) {
-        __m128d apart = _mm_setzero_pd();
-        for (int k = 0; k < 3; ++k) {
-            apart = _mm_or_pd(apart, _mm_cmpgt_pd(lo[k], _mm_loadu_pd(c.bound[2 * k + 1] + b)));
-            apart = _mm_or_pd(apart, _mm_cmplt_pd(hi[k], _mm_loadu_pd(c.bound[2 * k] + b)));
-        }
-        const int keep = ~_mm_movemask_pd(apart) & (b + 1 < b1 ? 3 : 1);
-        out[n] = Candidate(ua, b);
-        n += keep & 1;
-        out[n] = Candidate(ua, b + 1);
-        n += keep >> 1;
-    }
-    return n;
+AabbColumns columns_of(const CellGrid& g) {
+    AabbColumns c;
+    for (int i = 0; i < 6; ++i) c.bound[i] = g.bound(i);
+    return c;
 }
-#else
-std::size_t overlap_span(const Columns& c, std::size_t a, std::uint32_t b0, std::uint32_t b1, Candidate* out,
-                         std::size_t n) {
-    double box[6];
-    for (int i = 0; i < 6; ++i) box[i] = c.bound[i][a];
-    const auto ua = static_cast<std::uint32_t>(a);
-    for (std::uint32_t b = b0; b < b1; ++b) {
-        double other[6];
-        for (int i = 0; i < 6; ++i) other[i] = c.bound[i][b];
-        out[n] = Candidate(ua, b);
-        n += aabb_overlap(box, other);
-    }
-    return n;
-}
-#endif
 
 // Candidates of sorted geom a: appended at out[n], n advanced past the
 // passing ones. Grid candidates pass the AABB test only (the narrowphase
 // applies the rest of the filter to the few that do); big-list ones pass all.
-std::size_t collect(const PairInputs& in, const Columns& c, std::size_t a, const Spans& sp, Candidate* out,
+std::size_t collect(const PairInputs& in, const AabbColumns& c, std::size_t a, const Spans& sp, Candidate* out,
                     std::size_t n) {
     for (int r = 0; r < 5; ++r) n = overlap_span(c, a, sp.begin[r], sp.end[r], out, n);
     if (in.nbig == 0) return n;
@@ -118,7 +69,7 @@ std::size_t collect(const PairInputs& in, const Columns& c, std::size_t a, const
 }
 
 void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vector<Candidate>& cand) {
-    const Columns c(*in.grid);
+    const AabbColumns c = columns_of(*in.grid);
     std::size_t n = 0;
     for (std::size_t a = a0; a < a1; ++a) {
         const Spans sp = spans_of(*in.grid, a);

@@ -1,15 +1,18 @@
 // The pair search of the grid backend, one chunk of sorted geoms at a time:
-// broadphase, then narrowphase. The broadphase tests each geom against the
-// later geoms of its cell, the half stencil of forward cells and the big list
-// (ODE's collideAABBs filter: closed AABB overlap, same body, category and
-// collide bits from the grid entry alone), writing every candidate and
-// advancing past it only if it passes: no branch on an outcome that is close
-// to random in a pile. The narrowphase runs over the surviving candidates:
-// sphere-sphere and sphere-plane pairs through the exact contact test (the
-// contact itself is computed by the merge, lanes.hpp), other primitive pairs
-// through dCollide, the rest set aside for the serial pass.
+// broadphase, then narrowphase. The broadphase tests each geom's AABB against
+// the later geoms of its cell, the half stencil of forward cells and the big
+// list, reading the grid's AABB columns two geoms per SSE2 compare (ODE's
+// closed overlap test; a scalar loop where SSE2 is absent), writing every
+// candidate and advancing past it only if it passes: no branch on an outcome
+// that is close to random in a pile. The narrowphase runs over the survivors
+// (about a quarter): the rest of ODE's collideAABBs filter (same body,
+// category and collide bits), then sphere-sphere and sphere-plane pairs
+// through the exact contact test (the contact itself is computed by the
+// merge, lanes.hpp), other primitive pairs through dCollide, the rest set
+// aside for the serial pass.
 // Trade-off: a candidate buffer per thread (8 bytes a candidate, a chunk's
-// worth) in exchange for two tight loops that each time their own share.
+// worth) in exchange for two tight loops that each time their own share; the
+// big list is tested whole in the broadphase (it is short and scalar anyway).
 #pragma once
 #include <cstddef>
 
