@@ -23,6 +23,8 @@
 
 namespace parode::omp {
 
+// One geom's AABB and tag in one record: the big list's geoms, and what
+// CellGrid::entry assembles for a grid geom tested against them.
 struct alignas(64) GridEntry {
     dReal aabb[6];
     dBodyID body;
@@ -94,7 +96,7 @@ public:
         e.flags = tags()[s].flags;
         return e;
     }
-    static constexpr std::size_t kPad = 2;
+    static constexpr std::size_t kPad = 1;
     const PrimData* prims() const { return prims_.data(); }
     std::uint64_t key(std::size_t i) const { return keys_[i]; }
 
@@ -142,7 +144,7 @@ private:
     std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
     std::vector<std::uint64_t> keys_;      // per sorted position
     std::size_t size_ = 0;
-    std::size_t stride_ = 0;  // doubles per column: size_ + kPad, even (16-byte aligned columns)
+    std::size_t stride_ = 0;  // doubles per column: size_ + kPad rounded up to even (16-byte aligned columns)
     ScratchArray<double> columns_{nullptr, kSlotEntries};  // six bounds, then the tags (two doubles' room each)
     ScratchArray<PrimData> prims_{nullptr, kSlotPrims};
 };
