@@ -54,8 +54,8 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     tangent_frame(K.n, t1, t2);
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
-    const double m = in.body[0]->invm + (two ? in.body[1]->invm : 0.0);
-    const double k = in.body[0]->invi * K.r1 * K.r1 + (two ? in.body[1]->invi * K.r2 * K.r2 : 0.0);
+    const double m = in.invm[0] + (two ? in.invm[1] : 0.0);
+    const double k = in.invi[0] * K.r1 * K.r1 + (two ? in.invi[1] * K.r2 * K.r2 : 0.0);
     double closing = dot3(f.n, in.vel[0]);
     if (two) closing -= dot3(f.n, in.vel[1]);
     double c[3], cfm[3];
@@ -92,12 +92,12 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
     for (int row = 0; row < K.rows; ++row) {
         double* J = K.J[row];
         double* iMJ = K.iMJ[row];
-        for (int i = 0; i < 3; ++i) iMJ[i] = in.body[0]->invm * J[i];
+        for (int i = 0; i < 3; ++i) iMJ[i] = in.invm[0] * J[i];
         mul33(in.invI[0], J + 3, iMJ + 3);
         double rhs = c[row] * in.fps - dot3(J, in.tmp[0]) - dot3(J + 3, in.tmp[0] + 3);
         double sum = dot3(iMJ, J) + dot3(iMJ + 3, J + 3);
         if (f.b2 >= 0) {
-            for (int i = 0; i < 3; ++i) iMJ[6 + i] = in.body[1]->invm * J[6 + i];
+            for (int i = 0; i < 3; ++i) iMJ[6 + i] = in.invm[1] * J[6 + i];
             mul33(in.invI[1], J + 9, iMJ + 9);
             rhs -= dot3(J + 6, in.tmp[1]) + dot3(J + 9, in.tmp[1] + 3);
             sum += dot3(iMJ + 6, J + 6) + dot3(iMJ + 9, J + 9);

@@ -70,7 +70,7 @@ struct RowInputs {
     const double* tmp[2];  // 6 each; tmp[1] null when static
     const double* vel[2];
     const double* invI[2];  // world-frame inverse inertia (Block only)
-    const BodyRow* body[2];
+    double invm[2], invi[2];  // inverse mass, scalar inverse inertia (0: see invI)
     const dSurfaceParameters* surface;
     double fps, erp, cfm, surface_layer, max_correcting_vel, sor_w;
 };
@@ -137,8 +137,19 @@ PARODE_LANE_INLINE V gather_lanes(Get get) {
 }
 template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
+// Square root lane by lane; SSE2 square roots on x86-64 (IEEE square
+// roots are correctly rounded: the same bits as std::sqrt, without its errno
+// branch per lane).
 template <class V>
 PARODE_LANE_INLINE V root(V v) {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    if constexpr (lanes<V>() == 4) {  // two SSE2 halves: an AVX builtin would need AVX here too
+        const Pair a = __builtin_ia32_sqrtpd(Pair{v[0], v[1]}), b = __builtin_ia32_sqrtpd(Pair{v[2], v[3]});
+        return V{a[0], a[1], b[0], b[1]};
+    } else if constexpr (lanes<V>() == 2) {
+        return __builtin_ia32_sqrtpd(v);
+    }
+#endif
     V r;
     for (int l = 0; l < lanes<V>(); ++l) set_lane(r, l, std::sqrt(lane(v, l)));
     return r;

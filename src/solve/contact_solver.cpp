@@ -214,7 +214,8 @@ void ContactSolver::build_row(std::size_t k) {
         for (int i = 0; i < 6; ++i) tmp[j][i] = B.v[i] * fps + B.acc[i];
         in.tmp[j] = tmp[j];
         in.vel[j] = B.v;
-        in.body[j] = &hot_[layout_.slot()[locals[j]]];
+        in.invm[j] = B.invm;  // from the body record build_row reads anyway, not the sweeps' row
+        in.invi[j] = B.invi;
         in.invI[j] = block_of_[k] == kNone ? nullptr : inv_inertia(locals[j], diag[j]);
     }
     in.surface = &world_->surface(world_->material_of(r.lo), world_->material_of(r.hi));
