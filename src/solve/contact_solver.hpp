@@ -12,7 +12,7 @@
 // written back through ODE's setters.
 // Layout for the sweeps (solve/sweep_layout.hpp): bodies in cell order, one
 // cache line each (velocity corrections, inverse mass and inertia); contacts
-// in sweep order, sphere-sphere and sphere-plane ones as 160-byte rows, others
+// in sweep order, sphere-sphere and sphere-plane ones as 128-byte rows, others
 // as general blocks. Every loop goes through util/parallel.hpp; omp/ runs the
 // sweeps themselves (one parallel region, a barrier per colour).
 // Trade-off: a fixed spatial order instead of QuickStep's canonical order with
