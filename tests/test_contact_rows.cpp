@@ -1,12 +1,16 @@
 // The contact solver's two row forms on the same contacts: sphere contacts as
 // compact SphereRows and the same contacts as general Blocks (the solver's
 // general-only mode) give the same motion to rounding, step after step, and a
-// scene of spheres and boxes mixes both forms in one sweep. Four SIMD lanes
-// give the bits of two. Each test states what it runs on: two worlds of one
-// scene stepped side by side with the grid collider and the serial solver.
+// scene of spheres and boxes mixes both forms in one sweep; one contact
+// between unequal balls, built both ways, has the same effective masses.
+// Four SIMD lanes give the bits of two. Each test states what it runs on:
+// mostly two worlds of one scene stepped side by side with the grid collider
+// and the serial solver.
 // Trade-off: worlds of a few hundred bodies and a few dozen steps, long enough
 // for a wrong term in either form to show far above rounding (a lever arm or
-// a tangent off by a sign moves the pile by centimetres within ten steps).
+// a tangent off by a sign moves the pile by centimetres within ten steps);
+// the tennis catoms are all alike, so the effective masses of unequal bodies
+// are checked on one contact directly.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -135,6 +139,56 @@ TEST(ContactRows, SpheresAndBoxesMixBothFormsInOneSweep) {
     EXPECT_LT(rms_position_gap(mixed.world, blocks.world), 1e-6);
     for (std::size_t b : {1u, 2u}) EXPECT_NEAR(dBodyGetPosition(mixed.world.body(b))[2], 1.0, 0.02) << "ball " << b << " rests on the box";
     EXPECT_NEAR(dBodyGetPosition(mixed.world.body(3))[2], 0.4, 0.02) << "ball 3 rests on the floor";
+}
+
+// One contact between balls of unequal mass and inertia (radii 0.5 and 0.3),
+// built both ways: the sphere row's effective masses (SOR w over
+// J inv(M) J^T + CFM) are the general block's to rounding. The block's are
+// read back from its CFM, which it stores scaled by them. PGS reaches the
+// same impulses with a wrong effective mass, only slower, so a small scene
+// would not show one; this compares the numbers themselves.
+TEST(ContactRows, SphereRowEffectiveMassesAreTheBlocks) {
+    const double unit[3] = {0.3, -0.2, std::sqrt(1.0 - 0.3 * 0.3 - 0.2 * 0.2)};
+    ContactFrame f{};
+    f.b1 = 0;
+    f.b2 = 1;
+    f.depth = 0.01;
+    for (int i = 0; i < 3; ++i) {
+        f.n[i] = unit[i];
+        f.c1[i] = -(0.5 - f.depth / 2) * unit[i];  // contact point from body 1's centre
+        f.c2[i] = (0.3 - f.depth / 2) * unit[i];   // and from body 2's
+    }
+    const double zero[6] = {0, 0, 0, 0, 0, 0};
+    const double invm[2] = {2.0, 9.0}, invi[2] = {20.0, 250.0};
+    double invI[2][9] = {};
+    dSurfaceParameters surface{};
+    surface.mu = 0.6;
+    RowInputs in{};
+    for (int j = 0; j < 2; ++j) {
+        in.tmp[j] = zero;
+        in.vel[j] = zero;
+        in.invm[j] = invm[j];
+        in.invi[j] = invi[j];
+        invI[j][0] = invI[j][4] = invI[j][8] = invi[j];
+        in.invI[j] = invI[j];
+    }
+    in.surface = &surface;
+    in.fps = 200;
+    in.erp = 0.2;
+    in.cfm = 1e-5;
+    in.max_correcting_vel = 1e9;
+    in.sor_w = 1.3;
+    SphereRow row{};
+    Block block{};
+    build_sphere_row(f, in, row);
+    build_block(f, in, block);
+    ASSERT_EQ(block.rows, 3);
+    const double cf = in.cfm * in.fps;
+    const double ad[3] = {row.ad_n, row.ad_t, row.ad_t};
+    for (int r = 0; r < 3; ++r) {
+        const double block_ad = block.cfm[r] / cf;
+        EXPECT_NEAR(ad[r], block_ad, 1e-12 * block_ad) << "row " << r;
+    }
 }
 
 TEST(ContactRows, FourLanesGiveTheBitsOfTwo) {
