@@ -147,6 +147,17 @@ void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef
     for (unsigned char r : rep_of) repeated = repeated || r;
 }
 
+// Runs ahead whose geoms copy_blocks prefetches: the runs come in id order,
+// the geoms' prims lie in grid order, so each run's two prims are cache
+// misses (measured: a third of the merge's copy waited on them).
+constexpr std::size_t kAhead = 12;
+
+void prefetch_run(const RunRef& r, const FastSource& fast) {
+    if (r.a & kStored) return;
+    __builtin_prefetch(&fast.prim(r.a));
+    __builtin_prefetch(&fast.prim(r.b));
+}
+
 // A run's contacts at `to`; returns the end.
 ContactRecord* write_run(const RunRef& r, const Lane* lane, const FastSource& fast, ContactRecord* to) {
     if (r.a & kStored) {
@@ -178,7 +189,11 @@ void copy_blocks(const std::vector<Lane>& lanes, const FastSource& fast, const s
 #pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, nb, src)
     for (std::size_t b = 0; b < nb; ++b) {
         ContactRecord* to = dst + offset[b];
-        for (std::size_t i = start[b]; i < start[b + 1]; ++i) to = write_run(ref[i], lane, *src, to);
+        const std::size_t end = start[b + 1];
+        for (std::size_t i = start[b]; i < end; ++i) {
+            if (i + kAhead < end) prefetch_run(ref[i + kAhead], *src);
+            to = write_run(ref[i], lane, *src, to);
+        }
     }
 }
 

@@ -14,6 +14,7 @@ namespace {
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 constexpr std::size_t kGrain = 2048;
+constexpr std::size_t kRowAhead = 8;  // contacts ahead whose row build_phase prefetches
 
 using detail::cross3;
 using detail::mul33;
@@ -200,6 +201,16 @@ const double* ContactSolver::inv_inertia(std::uint32_t local, double* diag) cons
     return diag;
 }
 
+// The rows are built in canonical order but stored in the sweeps' cell
+// order, so each store would first wait for its row's two lines: they are
+// fetched kRowAhead contacts early, for writing (measured at 10^6 catoms on
+// one thread: the row loop 15 % faster; fetching the bodies as well was slower).
+void ContactSolver::prefetch_row(std::size_t p) const {
+    const auto* at = reinterpret_cast<const char*>(&rows_[p]);
+    __builtin_prefetch(at, 1);
+    __builtin_prefetch(at + 64, 1);
+}
+
 void ContactSolver::build_row(std::size_t k) {
     const std::size_t p = layout_.position(k);
     const ContactRecord& r = contacts_->items()[k];
@@ -208,7 +219,9 @@ void ContactSolver::build_row(std::size_t k) {
     const double fps = 1.0 / scene_.dt;
     const std::uint32_t locals[2] = {owner_[k], other_[k]};
     double tmp[2][6], diag[2][9];
-    RowInputs in{};
+    RowInputs in;  // not value-initialised: that cleared 136 bytes a contact
+    in.tmp[1] = in.vel[1] = in.invI[1] = nullptr;
+    in.invm[1] = in.invi[1] = 0;
     for (int j = 0; j < 2 && locals[j] != kNone; ++j) {
         const BodyData& B = bodies_[locals[j]];
         for (int i = 0; i < 6; ++i) tmp[j][i] = B.v[i] * fps + B.acc[i];
@@ -279,7 +292,10 @@ void ContactSolver::build_phase() {
     match_previous();
     rows_.resize(nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
-        for (std::size_t k = k0; k < k1; ++k) build_row(k);
+        for (std::size_t k = k0; k < k1; ++k) {
+            if (k + kRowAhead < k1) prefetch_row(layout_.position(k + kRowAhead));
+            build_row(k);
+        }
     });
     if (exchange_) plan_exchange();
 }

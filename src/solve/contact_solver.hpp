@@ -120,6 +120,7 @@ private:
     void classify(std::size_t k);
     void fill_body_rows();
     void match_previous();
+    void prefetch_row(std::size_t p) const;
     void build_row(std::size_t k);
     void plan_exchange();
     bool integrate_body(World& world, std::size_t i, double& max_speed);
