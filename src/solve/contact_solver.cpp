@@ -353,9 +353,20 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
     }
 }
 
+namespace {
+// The body rows a contact row acts on (a general block's: none fetched).
+void prefetch_bodies(const SphereRow& K, const BodyRow* hot) {
+    if (K.b1 < 0) return;
+    __builtin_prefetch(&hot[K.b1], 1);
+    if (K.b2 >= 0) __builtin_prefetch(&hot[K.b2], 1);
+}
+}  // namespace
+
 void ContactSolver::warm_cells(std::size_t t0, std::size_t t1) {
     BodyRow* hot = hot_.data();
-    for (std::size_t p = layout_.cell_begin(t0); p < layout_.cell_begin(t1); ++p) {
+    const std::size_t end = layout_.cell_begin(t1);
+    for (std::size_t p = layout_.cell_begin(t0); p < end; ++p) {
+        if (p + kRowAhead < end) prefetch_bodies(rows_[p + kRowAhead], hot);
         const SphereRow& K = rows_[p];
         if (K.b1 >= 0) apply_impulses(K, hot);
         else apply_impulses(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
@@ -477,14 +488,19 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     const std::size_t nc = contacts.size();
     scratch_resize(previous_, nc);  // last step's impulses were read by build_row
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
-        for (std::size_t k = k0; k < k1; ++k) remember(k);
+        for (std::size_t k = k0; k < k1; ++k) {
+            if (k + kRowAhead < k1) __builtin_prefetch(&rows_[layout_.position(k + kRowAhead)].lambda);
+            remember(k);
+        }
     });
     const std::size_t nb = bodies_.size(), chunks = chunk_count(nb, kGrain);
     std::vector<unsigned char> finite(chunks, 1);
     std::vector<double> fastest(chunks, 0.0);
     loops().run(chunks, nb, [&](std::size_t c) {
         bool ok = true;
-        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) {
+        const std::size_t end = chunk_begin(nb, chunks, c + 1);
+        for (std::size_t i = chunk_begin(nb, chunks, c); i < end; ++i) {
+            if (i + kRowAhead < end) __builtin_prefetch(&hot_[layout_.slot()[i + kRowAhead]]);
             ok &= integrate_body(world, i, fastest[c]);
         }
         finite[c] = ok;
