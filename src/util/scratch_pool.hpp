@@ -3,9 +3,9 @@
 // of a ScratchPool; the pipeline gives the collider and the contact solver one
 // pool, so the collider's geom tables and the solver's rows and bodies occupy
 // the same memory at different times of the step instead of side by side.
-// A slot grows by freeing its old buffer before taking a new one (a quarter
-// larger than asked), 64-byte aligned; capacity not yet touched costs no
-// resident memory.
+// A slot grows by freeing its old buffer before taking a new one (twice what
+// is asked, see util/scratch.hpp), 64-byte aligned; capacity not yet touched
+// costs no resident memory.
 // Trade-off: a slot's contents are undefined after resize and are overwritten
 // by the slot's next user, so only arrays whose every element is written after
 // sizing, and read only until the stage ends, may live in a pool; a stage
@@ -28,7 +28,7 @@ public:
         Slot& s = slots_[static_cast<std::size_t>(slot)];
         if (bytes > s.capacity) {
             s.data.reset();
-            s.capacity = bytes + bytes / 4;
+            s.capacity = 2 * bytes;
             s.data.reset(new std::byte[s.capacity + 63]);
             advise_huge_pages(s.data.get(), s.capacity + 63);
         }
