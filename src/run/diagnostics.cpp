@@ -20,10 +20,8 @@ struct Sums {
     ExactSum s[Count];
 };
 
-// Kinetic energy, momenta and height of one body into the sums.
-void add_body(dBodyID b, const Vec3& up, double g, Sums& sums) {
-    dMass m;
-    dBodyGetMass(b, &m);
+// Kinetic energy, momenta and height of one body of mass m into the sums.
+void add_body(dBodyID b, const dMass& m, const Vec3& up, double g, Sums& sums) {
     const dReal* x = dBodyGetPosition(b);
     const dReal* v = dBodyGetLinearVel(b);
     const dReal* w = dBodyGetAngularVel(b);
@@ -107,7 +105,7 @@ void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Ve
             continue;
         }
         counts[1] += dBodyIsEnabled(b) ? 0 : 1;
-        add_body(b, up, g, sums);
+        add_body(b, world.mass_of(world.gid(i)), up, g, sums);
     }
 }
 

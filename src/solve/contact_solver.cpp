@@ -71,8 +71,7 @@ void ContactSolver::set_scratch(ScratchPool* pool) {
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
     BodyData& B = bodies_[i];
-    dMass m;
-    dBodyGetMass(b, &m);
+    const dMass& m = world_->mass_of(world_->gid(i));  // not ODE's copy: a cache miss a body
     const dReal* f = dBodyGetForce(b);
     const dReal* t = dBodyGetTorque(b);
     const dReal* v = dBodyGetLinearVel(b);

@@ -25,7 +25,7 @@ dSpaceID make_space(SpaceKind kind) {
     return dSimpleSpaceCreate(nullptr);
 }
 
-void set_mass(dBodyID b, const BodySpec& s) {
+dMass mass_for(const BodySpec& s) {
     dMass m;
     const Shape& sh = s.shape;
     switch (sh.kind) {
@@ -34,7 +34,7 @@ void set_mass(dBodyID b, const BodySpec& s) {
         case ShapeKind::Capsule: dMassSetCapsuleTotal(&m, s.mass, 3, sh.radius, sh.length); break;
         case ShapeKind::Cylinder: dMassSetCylinderTotal(&m, s.mass, 3, sh.radius, sh.length); break;
     }
-    dBodySetMass(b, &m);
+    return m;
 }
 
 void place_geom(dGeomID g, const Vec3& p, const Quat& q) {
@@ -88,6 +88,8 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     const std::size_t n = gids ? gids->size() : global_;
     map_.reset(global_, n);
     bodies_.reserve(n);
+    for (const BodySpec& b : scene.bodies) body_mass_.push_back(mass_for(b));
+    catom_mass_ = mass_for(scene.catoms.proto);
     build_statics();
     for (std::size_t i = 0; i < n; ++i) add_body(gids ? (*gids)[i] : static_cast<std::uint32_t>(i), false);
     build_joints();
@@ -114,7 +116,7 @@ std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* stat
     const BodySpec s = scene_.body(gid);
     const std::size_t local = bodies_.size();
     dBodyID b = dBodyCreate(world_);
-    set_mass(b, s);
+    dBodySetMass(b, &mass_of(gid));  // ODE copies it: what mass_of returns, bit for bit
     dGeomID g = make_geom(s.shape);
     dGeomSetBody(g, b);
     place_geom(g, s.position, s.orientation);
@@ -269,6 +271,10 @@ void World::settle_quaternions() {
         for (int k = 0; k < 4; ++k) q_in_[i][static_cast<std::size_t>(k)] = in[k];
         dBodySetQuaternion(bodies_[i], in);
     }
+}
+
+const dMass& World::mass_of(std::uint32_t gid) const {
+    return gid < body_mass_.size() ? body_mass_[gid] : catom_mass_;
 }
 
 int World::material_of(std::uint32_t geom_id) const {

@@ -88,6 +88,10 @@ public:
     // Every geom of space(): local body geoms in local order, then statics.
     const std::vector<dGeomID>& geoms() const { return geoms_; }
     int material_of(std::uint32_t geom_id) const;
+    // The mass of body `gid` as World gave it to ODE (dBodySetMass copies it,
+    // and nothing else in parode sets a mass): what dBodyGetMass would read,
+    // without touching the body's record.
+    const dMass& mass_of(std::uint32_t gid) const;
     // The shape of a geom by id (a body's, a static geom's or a plane), from
     // the scene: no access to ODE's geom.
     enum class GeomShape { Sphere, Box, Capsule, Cylinder, Plane };
@@ -160,6 +164,8 @@ private:
     std::vector<int> static_material_;
     std::vector<dJointID> joints_;
     std::vector<dSurfaceParameters> surfaces_;  // materials x materials
+    std::vector<dMass> body_mass_;  // per scene body (scene.bodies)
+    dMass catom_mass_{};            // every catom's
 };
 
 }  // namespace parode
