@@ -23,15 +23,6 @@
 
 namespace parode::omp {
 
-// One geom's AABB and tag in one record: the big list's geoms, and what
-// CellGrid::entry assembles for a grid geom tested against them.
-struct alignas(64) GridEntry {
-    dReal aabb[6];
-    dBodyID body;
-    std::uint32_t info;   // index into the GeomInfo table
-    std::uint32_t flags;  // GeomFlag bits
-};
-
 // What the pair filter needs of a geom besides its AABB.
 struct GridTag {
     dBodyID body;
@@ -39,13 +30,18 @@ struct GridTag {
     std::uint32_t flags;  // GeomFlag bits
 };
 
+// One geom's AABB and tag in one record: the big list's geoms, and what
+// CellGrid::entry assembles for a grid geom tested against them.
+struct alignas(64) GridEntry {
+    dReal aabb[6];
+    GridTag tag;
+};
+
 // The grid entry of geom `g`, which is entry `info` of the GeomInfo table.
 inline GridEntry grid_entry(const GeomInfo& g, std::uint32_t info) {
     GridEntry e;
     std::copy(g.aabb, g.aabb + 6, e.aabb);
-    e.body = g.body;
-    e.info = info;
-    e.flags = g.flags;
+    e.tag = GridTag{g.body, info, g.flags};
     return e;
 }
 
@@ -91,9 +87,7 @@ public:
     GridEntry entry(std::size_t s) const {
         GridEntry e;
         for (int i = 0; i < 6; ++i) e.aabb[i] = bound(i)[s];
-        e.body = tags()[s].body;
-        e.info = tags()[s].info;
-        e.flags = tags()[s].flags;
+        e.tag = tags()[s];
         return e;
     }
     static constexpr std::size_t kPad = 1;

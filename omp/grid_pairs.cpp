@@ -11,15 +11,15 @@ namespace {
 
 // ODE's collideAABBs filter beyond the AABB test: same body, category and
 // collide bits (from the flags, or from infos when they do not fit there).
-bool tags_pass(const PairInputs& in, dBodyID ba, std::uint32_t fa, std::uint32_t ia, dBodyID bb, std::uint32_t fb,
-               std::uint32_t ib) {
-    const bool bits = ((fa | fb) & kWideBits) ? body_and_bits_pass(in.infos[ia], in.infos[ib]) : packed_bits_pass(fa, fb);
-    return !(ba && ba == bb) & bits;
+bool tags_pass(const PairInputs& in, const GridTag& a, const GridTag& b) {
+    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos[a.info], in.infos[b.info])
+                                                        : packed_bits_pass(a.flags, b.flags);
+    return !(a.body && a.body == b.body) & bits;
 }
 
 // The complete filter on two entries.
 bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
-    return aabb_overlap(a.aabb, b.aabb) & tags_pass(in, a.body, a.flags, a.info, b.body, b.flags, b.info);
+    return aabb_overlap(a.aabb, b.aabb) & tags_pass(in, a.tag, b.tag);
 }
 
 // The spans of sorted positions geom a is tested against: the later geoms of
@@ -84,9 +84,7 @@ void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vecto
 bool candidate_tags_pass(const PairInputs& in, const Candidate& c) {
     if (c.b & kBigList) return true;  // tested whole by collect
     const GridTag* t = in.grid->tags();
-    const GridTag& ta = t[c.a];
-    const GridTag& tb = t[c.b];
-    return tags_pass(in, ta.body, ta.flags, ta.info, tb.body, tb.flags, tb.info);
+    return tags_pass(in, t[c.a], t[c.b]);
 }
 
 // Sphere pairs: a run when they touch (written, kept only if so); then the
@@ -136,8 +134,9 @@ void big_pairs(const PairInputs& in, Lane& l) {
             if (!passes(in, a, b)) continue;
             const PrimData& pa = in.big_prims[i];
             const PrimData& pb = in.big_prims[j];
-            if (fast_pair(a.flags, b.flags)) l.fast(pa, (a.flags & kSphere) != 0, pb, (b.flags & kSphere) != 0, in.max_contacts);
-            else if (a.flags & b.flags & kSafe) l.generic(pa.geom, pb.geom, in.max_contacts);
+            const std::uint32_t fa = a.tag.flags, fb = b.tag.flags;
+            if (fast_pair(fa, fb)) l.fast(pa, (fa & kSphere) != 0, pb, (fb & kSphere) != 0, in.max_contacts);
+            else if (fa & fb & kSafe) l.generic(pa.geom, pb.geom, in.max_contacts);
             else l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
         }
     }
