@@ -4,8 +4,8 @@
 // as CFM), their effective masses scaled by the SOR factor.
 // The four-lane instantiation's helpers take and return 32-byte vectors; they
 // are always inlined into the AVX entry point, so no such vector crosses a
-// call and GCC's note on the ABI of passing them does not apply.
-#pragma GCC diagnostic ignored "-Wpsabi"
+// call and GCC's note on the ABI of passing them does not apply (src/
+// CMakeLists.txt turns it off for this file).
 #include "solve/contact_rows.hpp"
 
 #include <algorithm>
