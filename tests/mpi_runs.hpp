@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "scratch_dir.hpp"
+
 namespace mpi_runs {
 
 namespace fs = std::filesystem;
@@ -28,12 +30,7 @@ struct Result {
     std::string err;
 };
 
-inline std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream os;
-    os << in.rdbuf();
-    return os.str();
-}
+using parode::test::slurp;
 
 inline std::size_t count(const std::string& text, const std::string& what) {
     std::size_t n = 0;
@@ -41,13 +38,9 @@ inline std::size_t count(const std::string& text, const std::string& what) {
     return n;
 }
 
-class Mpi : public ::testing::Test {
+class Mpi : public parode::test::ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("parode_test_mpi_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    Mpi() : ScratchDirTest("mpi") {}
 
     // `parode ARGS` on `ranks` processes (0: without mpiexec), stderr kept.
     Result run(int ranks, const std::string& args, int timeout_s = 240) const {
@@ -61,8 +54,6 @@ protected:
     }
     nlohmann::json report(const std::string& name) const { return nlohmann::json::parse(slurp(dir_ / name)); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-    fs::path dir_;
 };
 
 struct Case {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "cli_common.hpp"
+#include "scratch_dir.hpp"
 #include "io/output_error.hpp"
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
@@ -35,6 +36,7 @@
 namespace {
 
 namespace fs = std::filesystem;
+using parode::test::slurp;
 
 const std::string kSourceDir = PARODE_SOURCE_DIR;
 const std::string kTennis = kSourceDir + "/jobs/scenes/tennis.toml";
@@ -47,20 +49,9 @@ struct Result {
     std::string err;
 };
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream os;
-    os << in.rdbuf();
-    return os.str();
-}
-
-class Cli : public ::testing::Test {
+class Cli : public parode::test::ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("parode_test_cli_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    Cli() : ScratchDirTest("cli") {}
 
     // `parode ARGS` with stdout and stderr captured separately; `env`
     // ("NAME=value ") is set for that command alone.
@@ -85,8 +76,6 @@ protected:
         EXPECT_TRUE(fs::exists(path)) << r.err;
         return nlohmann::json::parse(slurp(path));  // throws (fails the test) unless valid JSON
     }
-
-    fs::path dir_;
 };
 
 TEST_F(Cli, HelpListsRun) {

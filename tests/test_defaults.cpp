@@ -16,18 +16,16 @@
 #include <sstream>
 #include <string>
 
+#include "scratch_dir.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 const std::string kScenes = std::string(PARODE_SOURCE_DIR) + "/jobs/scenes/";
 
-class Defaults : public ::testing::Test {
+class Defaults : public parode::test::ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("parode_test_defaults_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    Defaults() : ScratchDirTest("defaults") {}
     // `env parode run ARGS --report r.json`: the exit code; report() reads r.json.
     int run(const std::string& args, const std::string& env = "env -u OMP_NUM_THREADS -u SLURM_CPUS_PER_TASK") const {
         const std::string cmd = "cd '" + dir_.string() + "' && " + env + " '" + PARODE_BINARY + "' run " + args +
@@ -39,18 +37,12 @@ protected:
         std::ifstream in(dir_ / "r.json");
         return nlohmann::json::parse(in);
     }
-    std::string err() const {
-        std::ifstream in(dir_ / "err.txt");
-        std::ostringstream os;
-        os << in.rdbuf();
-        return os.str();
-    }
+    std::string err() const { return parode::test::slurp(dir_ / "err.txt"); }
     std::string scene(const std::string& run_table) const {
         const fs::path p = dir_ / "s.toml";
         std::ofstream(p) << "[scene]\nname = \"s\"\n[catoms]\ncount = 8\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\n" << run_table;
         return p.string();
     }
-    fs::path dir_;
 };
 
 TEST_F(Defaults, GridAndParallelWithoutRunTable) {

@@ -23,10 +23,12 @@
 #include "domain/cells.hpp"
 #include "run/memory_estimate.hpp"
 #include "scene/scene_file.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using parode::test::slurp;
 const std::string kSourceDir = PARODE_SOURCE_DIR;
 
 struct Info {
@@ -34,13 +36,6 @@ struct Info {
     nlohmann::json j;
     std::string out;
 };
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::ostringstream os;
-    os << in.rdbuf();
-    return os.str();
-}
 
 // `parode info SCENE ARGS --json FILE`, its exit code, JSON and printout.
 Info info(const std::string& scene, const std::string& args = "") {

@@ -17,19 +17,17 @@
 #include <sstream>
 #include <string>
 
+#include "scratch_dir.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 
 const std::string kScenes = std::string(PARODE_SOURCE_DIR) + "/jobs/scenes/";
 
-class Restart : public ::testing::Test {
+class Restart : public parode::test::ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("parode_test_restart_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    Restart() : ScratchDirTest("restart") {}
     int parode(const std::string& args) const {
         const std::string cmd = "cd '" + dir_.string() + "' && '" + PARODE_BINARY + "' " + args + " 2>stderr.txt >/dev/null";
         const int status = std::system(cmd.c_str());
@@ -39,13 +37,7 @@ protected:
         std::ifstream in(dir_ / name);
         return nlohmann::json::parse(in);
     }
-    std::string err() const {
-        std::ifstream in(dir_ / "stderr.txt");
-        std::ostringstream os;
-        os << in.rdbuf();
-        return os.str();
-    }
-    fs::path dir_;
+    std::string err() const { return parode::test::slurp(dir_ / "stderr.txt"); }
 };
 
 struct Config {
