@@ -41,10 +41,9 @@ double potential_headroom(const World& world, const Domain& domain) {
     ExactSum sums[2];  // mass, mass * height above the lowest
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
-        dMass dm;
-        dBodyGetMass(world.body(i), &dm);
-        sums[0].add(dm.mass);
-        sums[1].add(dm.mass * (height(world, i, up) - low));
+        const double mass = world.mass_of(world.gid(i)).mass;
+        sums[0].add(mass);
+        sums[1].add(mass * (height(world, i, up) - low));
     }
     domain.sum(sums, 2);
     return gravity_norm(world.scene()) * (sums[1].value() + sums[0].value() * 1.0);

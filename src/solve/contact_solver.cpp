@@ -14,7 +14,9 @@ namespace {
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 constexpr std::size_t kGrain = 2048;
-constexpr std::size_t kRowAhead = 8;  // contacts ahead whose row build_phase prefetches
+// Items ahead (contacts, rows or bodies) at which a pass that walks one array
+// in order prefetches what it reaches out of order in another.
+constexpr std::size_t kPrefetchAhead = 8;
 
 using detail::cross3;
 using detail::mul33;
@@ -202,7 +204,7 @@ const double* ContactSolver::inv_inertia(std::uint32_t local, double* diag) cons
 
 // The rows are built in canonical order but stored in the sweeps' cell
 // order, so each store would first wait for its row's two lines: they are
-// fetched kRowAhead contacts early, for writing (measured at 10^6 catoms on
+// fetched kPrefetchAhead contacts early, for writing (measured at 10^6 catoms on
 // one thread: the row loop 15 % faster; fetching the bodies as well was slower).
 void ContactSolver::prefetch_row(std::size_t p) const {
     const auto* at = reinterpret_cast<const char*>(&rows_[p]);
@@ -292,7 +294,7 @@ void ContactSolver::build_phase() {
     rows_.resize(nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
-            if (k + kRowAhead < k1) prefetch_row(layout_.position(k + kRowAhead));
+            if (k + kPrefetchAhead < k1) prefetch_row(layout_.position(k + kPrefetchAhead));
             build_row(k);
         }
     });
@@ -365,7 +367,7 @@ void ContactSolver::warm_cells(std::size_t t0, std::size_t t1) {
     BodyRow* hot = hot_.data();
     const std::size_t end = layout_.cell_begin(t1);
     for (std::size_t p = layout_.cell_begin(t0); p < end; ++p) {
-        if (p + kRowAhead < end) prefetch_bodies(rows_[p + kRowAhead], hot);
+        if (p + kPrefetchAhead < end) prefetch_bodies(rows_[p + kPrefetchAhead], hot);
         const SphereRow& K = rows_[p];
         if (K.b1 >= 0) apply_impulses(K, hot);
         else apply_impulses(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
@@ -488,7 +490,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     scratch_resize(previous_, nc);  // last step's impulses were read by build_row
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
-            if (k + kRowAhead < k1) __builtin_prefetch(&rows_[layout_.position(k + kRowAhead)].lambda);
+            if (k + kPrefetchAhead < k1) __builtin_prefetch(&rows_[layout_.position(k + kPrefetchAhead)].lambda);
             remember(k);
         }
     });
@@ -499,7 +501,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
         bool ok = true;
         const std::size_t end = chunk_begin(nb, chunks, c + 1);
         for (std::size_t i = chunk_begin(nb, chunks, c); i < end; ++i) {
-            if (i + kRowAhead < end) __builtin_prefetch(&hot_[layout_.slot()[i + kRowAhead]]);
+            if (i + kPrefetchAhead < end) __builtin_prefetch(&hot_[layout_.slot()[i + kPrefetchAhead]]);
             ok &= integrate_body(world, i, fastest[c]);
         }
         finite[c] = ok;
