@@ -59,6 +59,16 @@ void read_prim(dGeomID g, std::uint32_t flags, PrimData& p) {
     }
 }
 
+// ODE's dxSphere::computeAABB on the position and radius read_prim took from
+// ODE: the same bits as dGeomGetAABB, current even when nobody told the space
+// that the sphere's body moved (World::defer_moves), and no write to the geom.
+void sphere_aabb(const dReal p[4], dReal aabb[6]) {
+    for (int k = 0; k < 3; ++k) {
+        aabb[2 * k] = p[k] - p[3];
+        aabb[2 * k + 1] = p[k] + p[3];
+    }
+}
+
 void read_extent(GeomInfo& info) {
     bool finite = true;
     for (int k = 0; k < 6; ++k) finite = finite && std::isfinite(info.aabb[k]);
@@ -80,14 +90,18 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
         info.prim.geom = g;
         return info;
     }
-    dGeomGetAABB(g, info.aabb);
     info.body = dGeomGetBody(g);
     info.category = dGeomGetCategoryBits(g);
     info.collide = dGeomGetCollideBits(g);
     if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
     info.flags |= pack_bits(info.category, info.collide);
-    read_extent(info);
     read_prim(g, info.flags, info.prim);
+    if ((info.flags & kSphere) && !dGeomIsOffset(g)) {
+        sphere_aabb(info.prim.p, info.aabb);
+    } else {
+        dGeomGetAABB(g, info.aabb);
+    }
+    read_extent(info);
     return info;
 }
 

@@ -62,7 +62,9 @@ struct GeomInfo {
 // The geoms of one call, in a scratch pool slot (util/scratch_pool.hpp).
 using GeomTable = ScratchArray<GeomInfo>;
 
-// Read one geom, bringing its AABB up to date (dGeomGetAABB). With
+// Read one geom, bringing its AABB up to date (dGeomGetAABB; a sphere without
+// offset: ODE's formula on its position and radius, so it is current even
+// when ODE was not told that its body moved, World::defer_moves). With
 // `primitives_only`, only primitive geoms are refreshed (safe concurrently:
 // the call writes that geom alone); others get kStaleAabb for the serial
 // refresh_stale(), since a nested space's AABB needs dSpaceClean first.

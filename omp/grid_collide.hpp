@@ -89,6 +89,7 @@ public:
     void set_threads(int threads) override { engine_.set_threads(threads); }
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
     void set_scratch(ScratchPool* pool) override { engine_.set_scratch(pool); }
+    bool reads_sphere_poses() const override { return true; }  // read_geom (geom_info.hpp)
     const CollideEngine& engine() const { return engine_; }
     // refresh (reading the geoms), broadphase (split, grid, candidates),
     // narrowphase (exact tests, dCollide, deferred pairs), merge.

@@ -42,6 +42,10 @@ public:
     // A pool for the per-call tables, shared with stages that run at other
     // times of the step (util/scratch_pool.hpp).
     virtual void set_scratch(ScratchPool* /*pool*/) {}
+    // True when the backend takes a sphere's AABB (no offset) from its current
+    // position and radius, never from ODE's cached AABB: sphere bodies may
+    // then move without ODE's spaces being told every step (World::defer_moves).
+    virtual bool reads_sphere_poses() const { return false; }
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

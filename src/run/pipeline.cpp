@@ -27,6 +27,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
+    world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());
     solver_->set_scratch(&scratch_);
@@ -183,6 +184,7 @@ void Pipeline::record_first_step(double wall) {
 void Pipeline::finish() {
     if (last_observed_ != steps_) timed(Stage::Observe, [this] { run_observe(); });
     timed(Stage::Output, [this] { snapshot_->close(); });
+    world_->sync_moves();  // ODE's spaces up to date for whoever reads them next
 }
 
 void Pipeline::run_migrate() { domain_->migrate(*world_, solver_->warm_impulses(), steps_); }

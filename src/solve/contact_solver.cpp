@@ -467,7 +467,7 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
 }
 
 void ContactSolver::commit(World& world) const {
-    world.mark_moved_owned();  // serial: moves geoms in the space's list
+    world.poses_written();  // serial unless deferred: moves geoms in the space's list
 }
 
 void ContactSolver::step(World& world, const ContactBuffer& contacts) {

@@ -258,6 +258,31 @@ void World::mark_moved_owned() {
     }
 }
 
+void World::poses_written() {
+    if (defer_moves_) {
+        moves_pending_ = true;
+        return;
+    }
+    mark_moved_owned();
+}
+
+void World::defer_moves(bool on) {
+    if (!on) sync_moves();
+    defer_moves_ = on;
+}
+
+void World::sync_moves() {
+    if (!moves_pending_) return;
+    mark_moved_owned();
+    moves_pending_ = false;
+}
+
+bool World::bodies_are_spheres() const {
+    const auto sphere = [](const BodySpec& b) { return b.shape.kind == ShapeKind::Sphere; };
+    return std::all_of(scene_.bodies.begin(), scene_.bodies.end(), sphere) &&
+           (scene_.catoms.count == 0 || sphere(scene_.catoms.proto));
+}
+
 bool World::restore_state(std::size_t local, const BodyState& s, const double ode_q[4]) {
     set_state(local, s);
     const dReal* q = dBodyGetQuaternion(bodies_[local]);

@@ -120,6 +120,22 @@ public:
     // waits on memory (an ODE body and its geom per call), so it asks for the
     // records a few bodies ahead.
     void mark_moved_owned();
+    // The owned bodies' poses were written (write_pose): mark_moved_owned now,
+    // or, while moves are deferred, only a note that ODE's spaces have not
+    // been told (sync_moves tells them).
+    void poses_written();
+    // Whether poses_written may leave the marks for later. The pipeline defers
+    // them when its collision backend takes each plain sphere's AABB from the
+    // sphere's position (CollideBackend::reads_sphere_poses) and every body is
+    // a sphere: no reader then needs ODE's flags, and the serial pass, a
+    // cache miss or two per body, is not paid every step. Turning deferral
+    // off first tells the spaces of any pending moves.
+    void defer_moves(bool on);
+    bool moves_deferred() const { return defer_moves_; }
+    // Tells ODE's spaces of moves not yet told; a no-op when none are pending.
+    void sync_moves();
+    // Every body's geom a sphere (from the scene: [[bodies]] and catoms).
+    bool bodies_are_spheres() const;
     // Sets a body from a saved state; true when ODE then holds exactly the
     // quaternion `ode_q` it held when the state was saved.
     bool restore_state(std::size_t local, const BodyState& s, const double ode_q[4]);
@@ -160,6 +176,8 @@ private:
     std::size_t owned_ = 0;
     IdMap map_;
     std::uint64_t generation_ = 0;
+    bool defer_moves_ = false;  // poses_written leaves the marks to sync_moves
+    bool moves_pending_ = false;  // poses written, ODE's spaces not told
     std::vector<dGeomID> geoms_;
     std::vector<int> static_material_;
     std::vector<dJointID> joints_;
