@@ -84,18 +84,21 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
     GeomInfo info;
     const int cls = dGeomGetClass(g);
     info.flags = class_flags(g, cls);
-    if (dGeomIsEnabled(g) && !zero_sized(g, cls)) info.flags |= kEnabled;
     if (primitives_only && !(info.flags & kSafe)) {
+        if (dGeomIsEnabled(g) && !zero_sized(g, cls)) info.flags |= kEnabled;
         info.flags |= kStaleAabb;
         info.prim.geom = g;
         return info;
     }
+    read_prim(g, info.flags, info.prim);  // a sphere's position and radius, read once
+    const bool zero = (info.flags & kSphere) ? info.prim.p[3] == 0 : zero_sized(g, cls);
+    if (dGeomIsEnabled(g) && !zero) info.flags |= kEnabled;
     info.body = dGeomGetBody(g);
     info.category = dGeomGetCategoryBits(g);
     info.collide = dGeomGetCollideBits(g);
     if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
     info.flags |= pack_bits(info.category, info.collide);
-    read_prim(g, info.flags, info.prim);
+    info.prim.flags = info.flags;
     if ((info.flags & kSphere) && !dGeomIsOffset(g)) {
         sphere_aabb(info.prim.p, info.aabb);
     } else {

@@ -1,9 +1,10 @@
 // Lanes and the canonical merge (see lanes.hpp). The merge is a parallel
 // bucket sort: runs are spread over blocks of the lower-id range (a histogram
-// per lane, a prefix over lanes x blocks, a scatter per lane), each block is
-// sorted by (lo, hi) on its own, then blocks are written out at their offsets
-// (stored runs copied, grid sphere runs computed in place). Only the prefix
-// sums (lanes x blocks entries) are serial.
+// of runs and of contacts per lane, a prefix over lanes x blocks, a scatter
+// per lane); each block is then sorted by (lo, hi) and at once written out at
+// its offset (stored runs copied, grid sphere runs computed in place), in one
+// task, while its runs are in that thread's cache. Only the prefix sums
+// (lanes x blocks entries) are serial.
 // Trade-off: blocks split the id range evenly, so a scene whose ids crowd in
 // one part of the range puts more work in a few blocks; that costs balance in
 // the sort, never correctness. Pairs reported twice (only possible through
@@ -55,16 +56,25 @@ BlockMap block_map(const std::vector<Lane>& lanes) {
     return BlockMap{blocks, static_cast<std::uint64_t>(max_lo) + 1};
 }
 
-// Per lane and block, how many runs (counts[lane * blocks + block]).
-void count_blocks(const std::vector<Lane>& lanes, const BlockMap& map,
-                  std::vector<std::size_t>& counts) {
+std::uint32_t run_contacts(std::uint32_t a, std::uint32_t b) { return a & kStored ? b : 1; }
+
+// Per lane and block, how many runs and how many contacts they hold
+// (runs[lane * blocks + block], contacts likewise).
+void count_blocks(const std::vector<Lane>& lanes, const BlockMap& map, std::vector<std::size_t>& runs,
+                  std::vector<std::size_t>& contacts) {
     const std::size_t nl = lanes.size(), nb = map.blocks;
-    counts.assign(nl * nb, 0);
+    runs.assign(nl * nb, 0);
+    contacts.assign(nl * nb, 0);
     const Lane* lane = lanes.data();
-    std::size_t* count = counts.data();
-#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, count, nl, nb, map)
+    std::size_t* count = runs.data();
+    std::size_t* held = contacts.data();
+#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, count, held, nl, nb, map)
     for (std::size_t l = 0; l < nl; ++l) {
-        for (const PairRun& r : lane[l].runs) ++count[l * nb + map.of(r.lo)];
+        for (const PairRun& r : lane[l].runs) {
+            const std::size_t at = l * nb + map.of(r.lo);
+            ++count[at];
+            held[at] += run_contacts(r.a, r.b);
+        }
     }
 }
 
@@ -92,10 +102,11 @@ void insertion_sort_hi(RunRef* first, RunRef* last) {
     }
 }
 
-// Counting sort of a block on lo (its ids span a narrow range), then by hi.
-void sort_block(RunRef* first, RunRef* last) {
+// Counting sort of a block on lo (its ids span a narrow range), then by hi;
+// returns where the sorted runs are (this thread's buffer, or the block itself).
+const RunRef* sort_block(RunRef* first, RunRef* last) {
     const std::size_t n = static_cast<std::size_t>(last - first);
-    if (n < 2) return;
+    if (n < 2) return first;
     std::uint32_t lo = first->lo, hi = first->lo;
     for (const RunRef* r = first; r < last; ++r) {
         lo = std::min(lo, r->lo);
@@ -103,7 +114,7 @@ void sort_block(RunRef* first, RunRef* last) {
     }
     if (hi - lo > 8 * n + 64) {
         std::sort(first, last, run_less);
-        return;
+        return first;
     }
     thread_local std::vector<std::uint32_t> start, next;  // reused: no allocation per block
     thread_local std::vector<RunRef> sorted;
@@ -116,38 +127,10 @@ void sort_block(RunRef* first, RunRef* last) {
     for (std::size_t b = 0; b + 1 < start.size(); ++b) {
         insertion_sort_hi(sorted.data() + start[b], sorted.data() + start[b + 1]);
     }
-    std::copy(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(n), first);
+    return sorted.data();
 }
 
-std::uint32_t run_contacts(const RunRef& r) { return r.a & kStored ? r.b : 1; }
-
-// Sorts each block; records its contact count and whether a pair repeats.
-void sort_blocks(const std::vector<std::size_t>& block_start, std::vector<RunRef>& refs,
-                 std::vector<std::size_t>& contacts, std::vector<unsigned char>& rep_of, int& repeated) {
-    const std::size_t nb = block_start.size() - 1;
-    contacts.assign(nb + 1, 0);
-    const std::size_t* start = block_start.data();
-    RunRef* ref = refs.data();
-    std::size_t* count = contacts.data();
-    // One flag per block, combined after the taskloop (no task reduction: each
-    // task writes only its own entries).
-    rep_of.assign(nb, 0);
-    unsigned char* rep = rep_of.data();
-#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(start, ref, count, nb, rep)
-    for (std::size_t b = 0; b < nb; ++b) {
-        sort_block(ref + start[b], ref + start[b + 1]);
-        std::size_t c = 0;
-        for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
-            c += run_contacts(ref[i]);
-            if (i > start[b] && ref[i].lo == ref[i - 1].lo && ref[i].hi == ref[i - 1].hi) rep[b] = 1;
-        }
-        count[b] = c;
-    }
-    repeated = 0;
-    for (unsigned char r : rep_of) repeated = repeated || r;
-}
-
-// Runs ahead whose geoms copy_blocks prefetches: the runs come in id order,
+// Runs ahead whose geoms sort_and_write prefetches: the runs come in id order,
 // the geoms' prims lie in grid order, so each run's two prims are cache
 // misses (measured: a third of the merge's copy waited on them).
 constexpr std::size_t kAhead = 12;
@@ -170,29 +153,45 @@ ContactRecord* write_run(const RunRef& r, const Lane* lane, const FastSource& fa
     return to + 1;
 }
 
-void copy_blocks(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& block_start,
-                 const std::vector<RunRef>& refs, std::vector<std::size_t>& contacts, ContactBuffer& out) {
-    const std::size_t nb = block_start.size() - 1;
+// Offsets of the blocks' contacts in the output (block_contacts holds each
+// lane's share per block): the blocks' totals, then an exclusive prefix.
+std::size_t contact_offsets(std::size_t lanes, std::size_t blocks, const std::vector<std::size_t>& block_contacts,
+                            std::vector<std::size_t>& offset) {
+    offset.assign(blocks + 1, 0);
     std::size_t acc = 0;
-    for (std::size_t b = 0; b < nb; ++b) {
-        const std::size_t c = contacts[b];
-        contacts[b] = acc;
-        acc += c;
+    for (std::size_t b = 0; b < blocks; ++b) {
+        offset[b] = acc;
+        for (std::size_t l = 0; l < lanes; ++l) acc += block_contacts[l * blocks + b];
     }
-    scratch_resize(out.items(), acc);  // every element is written below
+    offset[blocks] = acc;
+    return acc;
+}
+
+// Each block sorted and at once written out at its offset (stored runs
+// copied, grid sphere runs computed in place), while its runs are still in
+// this thread's cache; flags a block holding a pair twice.
+void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& block_start,
+                    std::vector<RunRef>& refs, const std::vector<std::size_t>& offsets, std::vector<unsigned char>& rep_of,
+                    ContactBuffer& out) {
+    const std::size_t nb = block_start.size() - 1;
+    scratch_resize(out.items(), offsets[nb]);  // every element is written below
+    rep_of.assign(nb, 0);
     ContactRecord* dst = out.items().data();
     const Lane* lane = lanes.data();
-    const RunRef* ref = refs.data();
+    RunRef* ref = refs.data();
     const std::size_t* start = block_start.data();
-    const std::size_t* offset = contacts.data();
+    const std::size_t* offset = offsets.data();
+    unsigned char* rep = rep_of.data();
     const FastSource* src = &fast;
-#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, nb, src)
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, rep, nb, src)
     for (std::size_t b = 0; b < nb; ++b) {
+        const std::size_t n = start[b + 1] - start[b];
+        const RunRef* sorted = sort_block(ref + start[b], ref + start[b + 1]);
         ContactRecord* to = dst + offset[b];
-        const std::size_t end = start[b + 1];
-        for (std::size_t i = start[b]; i < end; ++i) {
-            if (i + kAhead < end) prefetch_run(ref[i + kAhead], *src);
-            to = write_run(ref[i], lane, *src, to);
+        for (std::size_t i = 0; i < n; ++i) {
+            if (i + kAhead < n) prefetch_run(sorted[i + kAhead], *src);
+            if (i > 0 && sorted[i].lo == sorted[i - 1].lo && sorted[i].hi == sorted[i - 1].hi) rep[b] = 1;
+            to = write_run(sorted[i], lane, *src, to);
         }
     }
 }
@@ -233,14 +232,13 @@ void store_fast_runs(Lane& lane, const FastSource& fast) {
 
 void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& m) {
     const BlockMap map = block_map(lanes);
-    count_blocks(lanes, map, m.next);
+    count_blocks(lanes, map, m.next, m.block_contacts);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
+    contact_offsets(lanes.size(), map.blocks, m.block_contacts, m.contacts);
     scratch_resize(m.refs, m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
-    int repeated = 0;
-    sort_blocks(m.block_start, m.refs, m.contacts, m.repeated, repeated);
-    copy_blocks(lanes, fast, m.block_start, m.refs, m.contacts, out);
-    if (repeated) out.sort_canonical();
+    sort_and_write(lanes, fast, m.block_start, m.refs, m.contacts, m.repeated, out);
+    if (std::any_of(m.repeated.begin(), m.repeated.end(), [](unsigned char r) { return r != 0; })) out.sort_canonical();
 }
 
 }  // namespace parode::omp

@@ -87,7 +87,7 @@ struct RunRef {
 // Work arrays of the merge, kept between calls so no call allocates afresh.
 struct MergeScratch {
     std::vector<RunRef> refs;
-    std::vector<std::size_t> next, block_start, contacts;
+    std::vector<std::size_t> next, block_start, block_contacts, contacts;
     std::vector<unsigned char> repeated;
 };
 
