@@ -66,8 +66,8 @@ case "$CASE" in
     cp "$ROOT/analysis/results/scale_runs.csv" "$WORK/"
     python3 "$ROOT/jobs/scale_bench.py" --summarise-only --out "$WORK" >"$WORK/out.txt"
     have scale.csv
-    expect "^ 1000000   2      new     882.6 "
-    expect "later steps 718.8 ms/step"
+    expect "^ 1000000   2      new     721.9 "
+    expect "later steps 698.4 ms/step"
     expect "^new 1000000 catoms: state hash identical on every thread count"
     rc=0; python3 "$ROOT/jobs/scale_bench.py" --summarise-only --out "$WORK/none" >"$WORK/out.txt" 2>&1 || rc=$?
     [ "$rc" -eq 2 ] || fail "a missing scale_runs.csv exited $rc"
