@@ -153,20 +153,6 @@ ContactRecord* write_run(const RunRef& r, const Lane* lane, const FastSource& fa
     return to + 1;
 }
 
-// Offsets of the blocks' contacts in the output (block_contacts holds each
-// lane's share per block): the blocks' totals, then an exclusive prefix.
-std::size_t contact_offsets(std::size_t lanes, std::size_t blocks, const std::vector<std::size_t>& block_contacts,
-                            std::vector<std::size_t>& offset) {
-    offset.assign(blocks + 1, 0);
-    std::size_t acc = 0;
-    for (std::size_t b = 0; b < blocks; ++b) {
-        offset[b] = acc;
-        for (std::size_t l = 0; l < lanes; ++l) acc += block_contacts[l * blocks + b];
-    }
-    offset[blocks] = acc;
-    return acc;
-}
-
 // Each block sorted and at once written out at its offset (stored runs
 // copied, grid sphere runs computed in place), while its runs are still in
 // this thread's cache; flags a block holding a pair twice.
@@ -234,7 +220,7 @@ void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next, m.block_contacts);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
-    contact_offsets(lanes.size(), map.blocks, m.block_contacts, m.contacts);
+    outer_inner_offsets(lanes.size(), map.blocks, m.block_contacts, m.contacts);  // contacts: where each block's go
     scratch_resize(m.refs, m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
     sort_and_write(lanes, fast, m.block_start, m.refs, m.contacts, m.repeated, out);

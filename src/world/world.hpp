@@ -131,7 +131,6 @@ public:
     // cache miss or two per body, is not paid every step. Turning deferral
     // off first tells the spaces of any pending moves.
     void defer_moves(bool on);
-    bool moves_deferred() const { return defer_moves_; }
     // Tells ODE's spaces of moves not yet told; a no-op when none are pending.
     void sync_moves();
     // Every body's geom a sphere (from the scene: [[bodies]] and catoms).
