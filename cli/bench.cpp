@@ -2,7 +2,9 @@
 // (each optionally with a thread count, "grid:2") on identical states in one
 // process. A driver pipeline advances the scene; every --every steps its body
 // states are copied into one World per variant and each variant's collide() is
-// timed --repeats times, the variants alternating. Prints per-variant medians,
+// timed --repeats times, the variants alternating, each into its own contact
+// buffer kept between calls (as a run keeps its step's buffer: no timing pays
+// for first touching 100+ MB of fresh pages). Prints per-variant medians,
 // ratios against the first variant, and whether all contact sets were identical.
 // Trade-off: one World per variant costs memory, but every backend then sees
 // exactly the same geoms in the space kind it wants.
@@ -34,6 +36,7 @@ struct Variant {
     std::vector<double> seconds;
     double rss_mb = 0;  // peak-RSS growth on the first collide call
     std::size_t contacts = 0;
+    ContactBuffer out;  // kept between calls, as a run keeps its step's buffer
 };
 
 double peak_rss_mb() {
@@ -77,7 +80,7 @@ bool sample(const World& driver, std::vector<Variant>& vars, int repeats, int ma
     for (auto& v : vars) copy_state(driver, *v.world);
     for (int r = 0; r < repeats; ++r) {
         for (std::size_t k = 0; k < vars.size(); ++k) {
-            ContactBuffer out;
+            ContactBuffer& out = vars[k].out;
             const double before = peak_rss_mb();
             const auto t0 = std::chrono::steady_clock::now();
             vars[k].backend->collide(vars[k].world->space(), max_contacts, out);

@@ -27,6 +27,17 @@ Scene slab() {
     return load_scene_text("[scene]\nname = \"slab\"\n[catoms]\ncount = 512\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\n", "slab");
 }
 
+// The slab distributed over the processes: a domain, this process's world
+// (owned bodies and ghosts) and its warm impulses, set up.
+struct SlabDomain {
+    Scene sc = slab();
+    mpi::MpiDomain d{sc, *g_comm};
+    std::vector<std::uint32_t> ids = d.initial_bodies(sc);
+    World w{sc, SpaceKind::Simple, &ids};
+    std::vector<WarmImpulse> warm;
+    SlabDomain() { d.setup(w, &warm); }
+};
+
 std::int64_t owned_everywhere(const World& w) {
     std::int64_t n = static_cast<std::int64_t>(w.owned_count());
     g_comm->sum(&n, 1);
@@ -34,12 +45,10 @@ std::int64_t owned_everywhere(const World& w) {
 }
 
 TEST(MpiDomain, SetupGivesEveryBodyOneOwnerInItsCells) {
-    const Scene sc = slab();
-    mpi::MpiDomain d(sc, *g_comm);
-    const auto ids = d.initial_bodies(sc);
-    World w(sc, SpaceKind::Simple, &ids);
-    std::vector<WarmImpulse> warm;
-    d.setup(w, &warm);
+    SlabDomain slab_run;
+    const Scene& sc = slab_run.sc;
+    mpi::MpiDomain& d = slab_run.d;
+    World& w = slab_run.w;
     EXPECT_EQ(owned_everywhere(w), 512);
     const CellSpace cells(sc);
     for (std::size_t i = 0; i < w.body_count(); ++i) {
@@ -67,12 +76,11 @@ std::array<double, 3> point_of_other(const mpi::MpiDomain& d, const CellSpace& c
 }
 
 TEST(MpiDomain, MovedBodyMigratesWithStateAndImpulses) {
-    const Scene sc = slab();
-    mpi::MpiDomain d(sc, *g_comm);
-    const auto ids = d.initial_bodies(sc);
-    World w(sc, SpaceKind::Simple, &ids);
-    std::vector<WarmImpulse> warm;
-    d.setup(w, &warm);
+    SlabDomain slab_run;
+    const Scene& sc = slab_run.sc;
+    mpi::MpiDomain& d = slab_run.d;
+    World& w = slab_run.w;
+    std::vector<WarmImpulse>& warm = slab_run.warm;
     const CellSpace cells(sc);
     // The owner of body 100 moves it into a cell of the other process.
     const std::uint32_t gid = 100;
@@ -110,11 +118,9 @@ TEST(MpiDomain, MovedBodyMigratesWithStateAndImpulses) {
 }
 
 TEST(MpiDomain, InvariantCheckFailsOnEveryProcess) {
-    const Scene sc = slab();
-    mpi::MpiDomain d(sc, *g_comm);
-    const auto ids = d.initial_bodies(sc);
-    World w(sc, SpaceKind::Simple, &ids);
-    d.setup(w, nullptr);
+    SlabDomain slab_run;
+    mpi::MpiDomain& d = slab_run.d;
+    World& w = slab_run.w;
     if (d.rank() == 1) {  // claim a ghost: that body now has two owners
         for (std::size_t i = 0; i < w.body_count(); ++i) {
             if (!w.ghost(i)) continue;

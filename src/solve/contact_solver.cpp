@@ -278,8 +278,10 @@ void ContactSolver::build_phase() {
         for (std::size_t k = k0; k < k1; ++k) classify(k);
     });
     std::uint32_t general = 0;  // general blocks in canonical order (rare: a serial count)
-    for (std::uint32_t& b : block_of_) {
-        if (b != kNone) b = general++;
+    if (!all_rows_) {           // else classify marked none: skip a serial pass over the contacts
+        for (std::uint32_t& b : block_of_) {
+            if (b != kNone) b = general++;
+        }
     }
     blocks_.resize(general);
     LayoutInput li;
