@@ -1,7 +1,6 @@
 // Diagnostics (see diagnostics.hpp).
 #include "run/diagnostics.hpp"
 
-#include <array>
 #include <cmath>
 #include <vector>
 
@@ -72,6 +71,16 @@ std::uint64_t body_digest(const World& world, std::size_t local) {
     return h.value();
 }
 
+namespace {
+
+// The state hash from this process's sum of body digests (modulo 2^64).
+std::uint64_t hash_of_sum(std::uint64_t sum, const Domain& domain) {
+    domain.sum_wrapping(&sum, 1);
+    return SplitMix64::mix(sum);
+}
+
+}  // namespace
+
 std::uint64_t state_hash(const World& world, const Domain& domain) {
     const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
     std::vector<std::uint64_t> part(chunks, 0);
@@ -82,8 +91,7 @@ std::uint64_t state_hash(const World& world, const Domain& domain) {
     });
     std::uint64_t sum = 0;  // modulo 2^64: in any order
     for (std::uint64_t p : part) sum += p;
-    domain.sum_wrapping(&sum, 1);
-    return SplitMix64::mix(sum);
+    return hash_of_sum(sum, domain);
 }
 
 std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
@@ -94,37 +102,50 @@ std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
     return out;
 }
 
-// One chunk of bodies into its own partial sums (nan, disabled counts).
-void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Vec3& up, double g, Sums& sums,
-                    std::int64_t* counts) {
+namespace {
+
+// What one chunk of bodies adds: its partial sums, counts and digest sum.
+struct BodyPart {
+    Sums sums;
+    std::int64_t nan = 0, disabled = 0;
+    std::uint64_t digests = 0;  // modulo 2^64
+};
+
+// One chunk of bodies into its part, in one pass over their ODE records (the
+// sums and the state hash read the same arrays).
+void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Vec3& up, double g, BodyPart& part) {
     for (std::size_t i = i0; i < i1; ++i) {
         if (world.ghost(i)) continue;
         dBodyID b = world.body(i);
+        part.digests += body_digest(world, i);
         if (!finite_state(b)) {
-            ++counts[0];
+            ++part.nan;
             continue;
         }
-        counts[1] += dBodyIsEnabled(b) ? 0 : 1;
-        add_body(b, world.mass_of(world.gid(i)), up, g, sums);
+        part.disabled += dBodyIsEnabled(b) ? 0 : 1;
+        add_body(b, world.mass_of(world.gid(i)), up, g, part.sums);
     }
 }
+
+}  // namespace
 
 Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain) {
     const Vec3 up = up_direction(world.scene());
     const Vec3& gv = world.scene().gravity;
     const double g = std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
     const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
-    std::vector<Sums> part(chunks);
-    std::vector<std::array<std::int64_t, 2>> part_counts(chunks, {0, 0});
+    std::vector<BodyPart> part(chunks);
     loops().run(chunks, n, [&](std::size_t c) {
-        observe_bodies(world, chunk_begin(n, chunks, c), chunk_begin(n, chunks, c + 1), up, g, part[c], part_counts[c].data());
+        observe_bodies(world, chunk_begin(n, chunks, c), chunk_begin(n, chunks, c + 1), up, g, part[c]);
     });
     Sums sums;
     std::int64_t counts[3] = {0, 0, 0};  // nan, disabled, contacts
+    std::uint64_t digests = 0;
     for (std::size_t c = 0; c < chunks; ++c) {  // exact sums: the same bits in any order
-        for (int k = 0; k < Sums::Count; ++k) sums.s[k].merge(part[c].s[k]);
-        counts[0] += part_counts[c][0];
-        counts[1] += part_counts[c][1];
+        for (int k = 0; k < Sums::Count; ++k) sums.s[k].merge(part[c].sums.s[k]);
+        counts[0] += part[c].nan;
+        counts[1] += part[c].disabled;
+        digests += part[c].digests;
     }
     const auto& items = contacts.items();
     const std::size_t m = items.size(), cchunks = chunk_count(m, 4096);
@@ -161,7 +182,7 @@ Diagnostics observe(const World& world, const ContactBuffer& contacts, const Dom
         d.angular_momentum[static_cast<std::size_t>(i)] = sums.s[Sums::Lx + i].value();
     }
     d.mean_penetration = d.contacts ? sums.s[Sums::Depth].value() / static_cast<double>(d.contacts) : 0;
-    d.state_hash = state_hash(world, domain);
+    d.state_hash = hash_of_sum(digests, domain);
     return d;
 }
 
