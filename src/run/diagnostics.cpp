@@ -71,29 +71,6 @@ std::uint64_t body_digest(const World& world, std::size_t local) {
     return h.value();
 }
 
-namespace {
-
-// The state hash from this process's sum of body digests (modulo 2^64).
-std::uint64_t hash_of_sum(std::uint64_t sum, const Domain& domain) {
-    domain.sum_wrapping(&sum, 1);
-    return SplitMix64::mix(sum);
-}
-
-}  // namespace
-
-std::uint64_t state_hash(const World& world, const Domain& domain) {
-    const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
-    std::vector<std::uint64_t> part(chunks, 0);
-    loops().run(chunks, n, [&](std::size_t c) {
-        for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
-            if (!world.ghost(i)) part[c] += body_digest(world, i);
-        }
-    });
-    std::uint64_t sum = 0;  // modulo 2^64: in any order
-    for (std::uint64_t p : part) sum += p;
-    return hash_of_sum(sum, domain);
-}
-
 std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
     std::vector<std::uint32_t> out;
     for (std::size_t i = 0; i < world.body_count() && out.size() < limit; ++i) {
@@ -103,6 +80,12 @@ std::vector<std::uint32_t> nan_bodies(const World& world, std::size_t limit) {
 }
 
 namespace {
+
+// The state hash from this process's sum of body digests (modulo 2^64).
+std::uint64_t hash_of_sum(std::uint64_t sum, const Domain& domain) {
+    domain.sum_wrapping(&sum, 1);
+    return SplitMix64::mix(sum);
+}
 
 // What one chunk of bodies adds: its partial sums, counts and digest sum.
 struct BodyPart {

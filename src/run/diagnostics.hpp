@@ -39,8 +39,6 @@ Vec3 up_direction(const Scene& scene);
 bool finite_state(dBodyID b);
 // Digest of one body (its gid and state), the term of the state hash.
 std::uint64_t body_digest(const World& world, std::size_t local);
-// Collective: the hash of every body's state, over all processes.
-std::uint64_t state_hash(const World& world, const Domain& domain);
 // Collective: diagnostics of the owned bodies and contacts of every process.
 Diagnostics observe(const World& world, const ContactBuffer& contacts, const Domain& domain);
 // Gids of owned bodies whose state is not finite (at most `limit`).
