@@ -1,6 +1,7 @@
-// ExactSum and World storage: the exact sum does not depend on the order of
-// its terms or on how they are split and merged (as threads and ranks do),
-// and rounds the exact total correctly; World keeps gid <-> local maps right
+// ExactSum, Fnv1aSum and World storage: the exact sum does not depend on the
+// order of its terms or on how they are split and merged (as threads and
+// ranks do), and rounds the exact total correctly; Fnv1aSum, which hashes
+// records several at a time, sums the same digests as Fnv1a one by one; World keeps gid <-> local maps right
 // as bodies are added and removed. Trade-off: small random inputs with known
 // exact totals, checked against an independent computation. World::write_pose
 // and mark_moved leave ODE's bodies and spaces as its own setters do, bit for bit.
@@ -14,6 +15,7 @@
 
 #include "scene/scene_file.hpp"
 #include "util/exact_sum.hpp"
+#include "util/hash.hpp"
 #include "world/world.hpp"
 
 using parode::ExactSum;
@@ -92,6 +94,26 @@ TEST(ExactSum, SpecialValues) {
     EXPECT_EQ(exact({1.0, HUGE_VAL}), HUGE_VAL);
     EXPECT_TRUE(std::isnan(exact({HUGE_VAL, -HUGE_VAL})));
     EXPECT_EQ(exact({1.7e308, 1.7e308}), HUGE_VAL);  // overflows a double
+}
+
+// Every count from none to a few batches, so full and partial batches both
+// occur, against the sum of one Fnv1a per record.
+TEST(Fnv1aSum, SumsTheSameDigestsAsOneByOne) {
+    constexpr std::size_t kBytes = 108;
+    std::mt19937_64 rng(7);
+    for (std::size_t n = 0; n <= 27; ++n) {
+        parode::Fnv1aSum<kBytes> batched;
+        std::uint64_t expected = 0;
+        for (std::size_t r = 0; r < n; ++r) {
+            unsigned char rec[kBytes];
+            for (unsigned char& b : rec) b = static_cast<unsigned char>(rng());
+            std::memcpy(batched.next(), rec, kBytes);
+            parode::Fnv1a one;
+            one.add_bytes(rec, kBytes);
+            expected += one.value();
+        }
+        EXPECT_EQ(batched.value(), expected) << n << " records";
+    }
 }
 
 TEST(WorldStorage, AddRemoveKeepsMapsAndGeoms) {

@@ -2,6 +2,7 @@
 #include "run/diagnostics.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "util/hash.hpp"
@@ -60,14 +61,31 @@ bool finite_state(dBodyID b) {
     return true;
 }
 
-std::uint64_t body_digest(const World& world, std::size_t local) {
+namespace {
+
+// The bytes a body's digest covers: global id, position, quaternion, linear
+// and angular velocity.
+constexpr std::size_t kDigestBytes = sizeof(std::uint32_t) + 13 * sizeof(double);
+using DigestSum = Fnv1aSum<kDigestBytes>;
+
+void digest_record(const World& world, std::size_t local, unsigned char* out) {
     dBodyID b = world.body(local);
+    const std::uint32_t gid = world.gid(local);
+    std::memcpy(out, &gid, sizeof gid);
+    out += sizeof gid;
+    std::memcpy(out, dBodyGetPosition(b), 3 * sizeof(double));
+    std::memcpy(out + 24, dBodyGetQuaternion(b), 4 * sizeof(double));
+    std::memcpy(out + 56, dBodyGetLinearVel(b), 3 * sizeof(double));
+    std::memcpy(out + 80, dBodyGetAngularVel(b), 3 * sizeof(double));
+}
+
+}  // namespace
+
+std::uint64_t body_digest(const World& world, std::size_t local) {
+    unsigned char rec[kDigestBytes];
+    digest_record(world, local, rec);
     Fnv1a h;
-    h.add(world.gid(local));
-    h.add_doubles(dBodyGetPosition(b), 3);
-    h.add_doubles(dBodyGetQuaternion(b), 4);
-    h.add_doubles(dBodyGetLinearVel(b), 3);
-    h.add_doubles(dBodyGetAngularVel(b), 3);
+    h.add_bytes(rec, sizeof rec);
     return h.value();
 }
 
@@ -97,10 +115,11 @@ struct BodyPart {
 // One chunk of bodies into its part, in one pass over their ODE records (the
 // sums and the state hash read the same arrays).
 void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Vec3& up, double g, BodyPart& part) {
+    DigestSum digests;
     for (std::size_t i = i0; i < i1; ++i) {
         if (world.ghost(i)) continue;
         dBodyID b = world.body(i);
-        part.digests += body_digest(world, i);
+        digest_record(world, i, digests.next());
         if (!finite_state(b)) {
             ++part.nan;
             continue;
@@ -108,6 +127,7 @@ void observe_bodies(const World& world, std::size_t i0, std::size_t i1, const Ve
         part.disabled += dBodyIsEnabled(b) ? 0 : 1;
         add_body(b, world.mass_of(world.gid(i)), up, g, part.sums);
     }
+    part.digests = digests.value();
 }
 
 }  // namespace

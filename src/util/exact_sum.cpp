@@ -52,15 +52,13 @@ void ExactSum::add(double x) {
     const auto lo = static_cast<std::int64_t>((mant << r) & kLow);
     const auto mid = static_cast<std::int64_t>((mant >> (32 - r)) & kLow);
     const auto hi = static_cast<std::int64_t>(r ? mant >> (64 - r) : 0);
-    if (negative) {
-        d_[b] -= lo;
-        d_[b + 1] -= mid;
-        d_[b + 2] -= hi;
-    } else {
-        d_[b] += lo;
-        d_[b + 1] += mid;
-        d_[b + 2] += hi;
-    }
+    // Negated without a branch ((v ^ -1) + 1 = -v): signs of momenta are a
+    // coin toss from one body to the next, and a mispredicted branch costs
+    // more than the whole addition.
+    const std::int64_t neg = -static_cast<std::int64_t>(negative);
+    d_[b] += (lo ^ neg) - neg;
+    d_[b + 1] += (mid ^ neg) - neg;
+    d_[b + 2] += (hi ^ neg) - neg;
     if (++adds_ >= kNormaliseEvery) normalise();
 }
 
