@@ -177,14 +177,17 @@ void CollideEngine::Impl::split_items() {
     SplitPart* part = parts.data();
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(info, mark, part, n, blocks, limit)
     for (std::size_t b = 0; b < blocks; ++b) {
+        SplitPart p;  // a local, stored once: neighbouring blocks' parts share cache lines
         for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
             const std::uint32_t f = info[i].flags;
             const bool is_small = (f & kFinite) && info[i].extent <= limit;
-            mark[i] = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
-            if (mark[i] == 1) part[b].bounds.add(info[i]);
-            part[b].small += mark[i] == 1;
-            part[b].big += mark[i] == 2;
+            const std::uint8_t m = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
+            mark[i] = m;
+            if (m == 1) p.bounds.add(info[i]);
+            p.small += m == 1;
+            p.big += m == 2;
         }
+        part[b] = p;
     }
     list_split(blocks);
 }

@@ -4,12 +4,16 @@
 // When the stages use their threads never changes a result: below the size
 // crossovers, or with the team's cores shared, they run on one thread and
 // give the same bits; and the sharing policy backs off 1, 2, 4 ... 16 steps.
+// The observation's contact figures (count, deepest, mean depth) equal those
+// taken serially from the contact buffer, on any thread count.
 // Trade-off: whole-pipeline hashes catch any difference anywhere in the step;
 // the contact-level comparisons live in tests/omp/.
 #include <gtest/gtest.h>
 
 #include <cstring>
 
+#include "run/diagnostics.hpp"
+#include "util/exact_sum.hpp"
 #include "util/hash.hpp"
 #include "register.hpp"
 #include "team.hpp"
@@ -48,6 +52,30 @@ TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
             ASSERT_EQ(0, std::memcmp(&par[k], &serial[k], sizeof(BodyWrench))) << "body " << k << ", " << threads << " threads";
         }
     }
+}
+
+// Tennis without joints: every contact counts.
+TEST(ThreadCounts, ObservedContactFiguresEqualTheBuffersOwn) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=4000"});
+    auto p = test::run(sc, 20, "grid", 1);
+    const auto& items = p->contacts().items();
+    ASSERT_GT(items.size(), 4096u);  // more than one chunk of the contact pass
+    double deepest = 0;
+    ExactSum sum;
+    for (const ContactRecord& c : items) {
+        deepest = std::max(deepest, c.geom.depth);
+        sum.add(c.geom.depth);
+    }
+    const double mean = sum.value() / static_cast<double>(items.size());
+    for (int threads = 1; threads <= 3; ++threads) {
+        parode::omp::set_threads(threads);
+        parode::omp::set_min_parallel(0);
+        const Diagnostics d = observe(p->world(), p->contacts(), p->domain());
+        EXPECT_EQ(d.contacts, items.size()) << threads << " threads";
+        EXPECT_EQ(d.max_penetration, deepest) << threads << " threads";
+        EXPECT_EQ(d.mean_penetration, mean) << threads << " threads";
+    }
+    parode::omp::set_min_parallel(-1);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "solve/sweep_layout.hpp"
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 
 #include "domain/cells.hpp"
@@ -23,7 +24,7 @@ SweepLayout::Box SweepLayout::bounding_box(const LayoutInput& in) const {
     const std::size_t n = in.bodies, chunks = chunk_count(n, kGrain);
     std::vector<Box> part(chunks);
     loops().run(chunks, n, [&](std::size_t c) {
-        Box& b = part[c];
+        Box b;  // a local, stored once: neighbouring chunks' boxes share a cache line
         std::uint64_t hi[3] = {0, 0, 0};
         for (int a = 0; a < 3; ++a) b.lo[a] = ~0ULL;
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
@@ -34,6 +35,7 @@ SweepLayout::Box SweepLayout::bounding_box(const LayoutInput& in) const {
             }
         }
         for (int a = 0; a < 3; ++a) b.dim[a] = hi[a];  // the maximum, until combined
+        part[c] = b;
     });
     Box box{};
     std::uint64_t hi[3] = {0, 0, 0};
@@ -106,7 +108,9 @@ void SweepLayout::list_cells(const LayoutInput& in) {
     std::vector<std::size_t> first(chunks + 1, 0);
     auto starts = [&](std::size_t s) { return s == 0 || in.cell[order_[s]] != in.cell[order_[s - 1]]; };
     loops().run(chunks, n, [&](std::size_t c) {
-        for (std::size_t s = chunk_begin(n, chunks, c); s < chunk_begin(n, chunks, c + 1); ++s) first[c + 1] += starts(s);
+        std::size_t count = 0;  // stored once: neighbouring chunks' entries share a cache line
+        for (std::size_t s = chunk_begin(n, chunks, c); s < chunk_begin(n, chunks, c + 1); ++s) count += starts(s);
+        first[c + 1] = count;
     });
     std::partial_sum(first.begin(), first.end(), first.begin());
     cell_slot_.resize(first[chunks] + 1);
@@ -158,21 +162,27 @@ void SweepLayout::place_contacts() {
     const std::size_t cells = cell_slot_.size() - 1, chunks = chunk_count(cells, kGrain / 8);
     std::vector<std::size_t> contacts(cells);
     std::vector<std::size_t> per(chunks * kColours, 0), colour_first;
+    // Each chunk counts into a local row and stores it once: the rows of
+    // neighbouring chunks share a cache line.
     loops().run(chunks, cells, [&](std::size_t c) {
+        std::array<std::size_t, kColours> count{};
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
             std::size_t k = 0;
             for (std::uint32_t s = cell_slot_[t]; s < cell_slot_[t + 1]; ++s) k += run_count_[order_[s]];
             contacts[t] = k;
-            if (k) ++per[c * kColours + static_cast<std::size_t>(colour_[t])];
+            if (k) ++count[static_cast<std::size_t>(colour_[t])];
         }
+        std::copy(count.begin(), count.end(), per.begin() + static_cast<std::ptrdiff_t>(c * kColours));
     });
     outer_inner_offsets(chunks, kColours, per, colour_first);
     for (int c = 0; c <= kColours; ++c) colour_start_[static_cast<std::size_t>(c)] = colour_first[static_cast<std::size_t>(c)];
     const std::size_t tasks = colour_first[kColours];
     task_cell_.resize(tasks);
     loops().run(chunks, cells, [&](std::size_t c) {
+        std::array<std::size_t, kColours> next;
+        std::copy_n(per.begin() + static_cast<std::ptrdiff_t>(c * kColours), kColours, next.begin());
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
-            if (contacts[t]) task_cell_[per[c * kColours + static_cast<std::size_t>(colour_[t])]++] = static_cast<std::uint32_t>(t);
+            if (contacts[t]) task_cell_[next[static_cast<std::size_t>(colour_[t])]++] = static_cast<std::uint32_t>(t);
         }
     });
     pos_start_.resize(tasks + 1);
