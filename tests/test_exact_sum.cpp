@@ -1,8 +1,8 @@
 // ExactSum, Fnv1aSum and World storage: the exact sum does not depend on the
 // order of its terms or on how they are split and merged (as threads and
 // ranks do), and rounds the exact total correctly; Fnv1aSum, which hashes
-// records several at a time, sums the same digests as Fnv1a one by one; World keeps gid <-> local maps right
-// as bodies are added and removed. Trade-off: small random inputs with known
+// records several at a time, sums the same digests as Fnv1a one by one;
+// World keeps gid <-> local maps right as bodies are added and removed. Trade-off: small random inputs with known
 // exact totals, checked against an independent computation. World::write_pose
 // and mark_moved leave ODE's bodies and spaces as its own setters do, bit for bit.
 #include <gtest/gtest.h>

@@ -8,18 +8,19 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <string>
 
 namespace parode {
 
 class Fnv1a {
 public:
+    static constexpr std::uint64_t kBasis = 1469598103934665603ULL;
+    static constexpr std::uint64_t kPrime = 1099511628211ULL;
     void add_bytes(const void* p, std::size_t n) {
         const auto* b = static_cast<const unsigned char*>(p);
         for (std::size_t i = 0; i < n; ++i) {
             h_ ^= b[i];
-            h_ *= 1099511628211ULL;
+            h_ *= kPrime;
         }
     }
     void add(std::uint32_t v) { add_bytes(&v, sizeof v); }
@@ -27,7 +28,7 @@ public:
     std::uint64_t value() const { return h_; }
 
 private:
-    std::uint64_t h_ = 1469598103934665603ULL;
+    std::uint64_t h_ = kBasis;
 };
 
 // The sum modulo 2^64 of the FNV-1a digests of records of N bytes each,
@@ -49,10 +50,11 @@ public:
 
 private:
     void flush() {
+        if (filled_ == 0) return;
         std::uint64_t h[K];
-        for (std::size_t k = 0; k < K; ++k) h[k] = Fnv1a().value();
+        for (std::size_t k = 0; k < K; ++k) h[k] = Fnv1a::kBasis;
         for (std::size_t i = 0; i < N; ++i) {
-            for (std::size_t k = 0; k < K; ++k) h[k] = (h[k] ^ rec_[k][i]) * 1099511628211ULL;
+            for (std::size_t k = 0; k < K; ++k) h[k] = (h[k] ^ rec_[k][i]) * Fnv1a::kPrime;
         }
         for (std::size_t k = 0; k < filled_; ++k) sum_ += h[k];
         filled_ = 0;
