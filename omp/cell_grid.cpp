@@ -25,11 +25,13 @@ CellBounds item_bounds(const GeomTable& infos, const std::vector<std::uint32_t>&
     const std::size_t nblocks = (n + kBlock - 1) / kBlock;
     std::vector<CellBounds> part(nblocks);
     CellBounds* out = part.data();
-    const GeomInfo* info = infos.data();
+    const GeomView info = infos.view();
     const std::uint32_t* item = items.data();
 #pragma omp taskloop num_tasks(task_count(nblocks, 1)) default(none) firstprivate(out, info, item, n, nblocks)
     for (std::size_t b = 0; b < nblocks; ++b) {
-        for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) out[b].add(info[item[j]]);
+        CellBounds bounds;  // a local, stored once: neighbouring blocks' bounds share cache lines
+        for (std::size_t j = b * kBlock; j < std::min(n, (b + 1) * kBlock); ++j) bounds.add(info, item[j]);
+        out[b] = bounds;
     }
     CellBounds all;
     for (const CellBounds& b : part) all.add(b);
@@ -65,11 +67,11 @@ void CellGrid::choose_cells(const CellBounds& bounds, bool empty) {
     rows_[3] = dims_[0] * dims_[1] + dims_[0];
 }
 
-std::uint64_t CellGrid::cell_key(const GeomInfo& g) const {
+std::uint64_t CellGrid::cell_key(const dReal* aabb) const {
     std::uint64_t c[3];
     for (int k = 0; k < 3; ++k) {
         // Non-negative (origin is the minimum corner), so truncation is floor.
-        const double x = (g.aabb[2 * k] - origin_[k]) * inv_h_;
+        const double x = (aabb[2 * k] - origin_[k]) * inv_h_;
         c[k] = std::min(static_cast<std::uint64_t>(x > 0 ? x : 0) + 1, dims_[k] - 2);
     }
     return (c[2] * dims_[1] + c[1]) * dims_[0] + c[0];
@@ -80,10 +82,14 @@ void CellGrid::compute_keys(const GeomTable& infos,
     // Plain pointers: a task would copy a referenced vector (firstprivate).
     const std::size_t n = items.size();
     raw_keys_.resize(n);
-    const GeomInfo* info = infos.data();
+    const GeomView info = infos.view();
     const std::uint32_t* item = items.data();
 #pragma omp taskloop num_tasks(task_count(n, 2048))
-    for (std::size_t j = 0; j < n; ++j) raw_keys_[j] = cell_key(info[item[j]]);
+    for (std::size_t j = 0; j < n; ++j) {
+        dReal b[6];
+        info.aabb(item[j], b);
+        raw_keys_[j] = cell_key(b);
+    }
 }
 
 // Stable counting sort by cell key, in tasks: items are first spread over
@@ -190,14 +196,16 @@ void CellGrid::fill_entries(const GeomTable& infos,
     const std::size_t stride = stride_;
     for (int i = 0; i < 6; ++i) std::fill(col + i * stride + n, col + (i + 1) * stride, 0.0);  // the padding
     GridTag* tag = reinterpret_cast<GridTag*>(col + 6 * stride);
-    const GeomInfo* info = infos.data();
+    const GeomView info = infos.view();
     const std::uint32_t* item = items.data();
 #pragma omp taskloop num_tasks(task_count(n, 2048)) firstprivate(col, tag, info, item, stride)
     for (std::size_t s = 0; s < n; ++s) {
         const std::uint32_t j = order_[s];
-        const GeomInfo& g = info[item[j]];
-        for (int i = 0; i < 6; ++i) col[i * stride + s] = g.aabb[i];
-        tag[s] = GridTag{g.body, item[j], g.flags};
+        const GeomInfo& g = info.info[item[j]];
+        dReal b[6];
+        info.aabb(item[j], b);
+        for (int i = 0; i < 6; ++i) col[i * stride + s] = b[i];
+        tag[s] = GridTag{g.body, item[j], g.prim.flags};
         prims_[s] = g.prim;
         keys_[s] = raw_keys_[j];
     }

@@ -37,11 +37,11 @@ struct alignas(64) GridEntry {
     GridTag tag;
 };
 
-// The grid entry of geom `g`, which is entry `info` of the GeomInfo table.
-inline GridEntry grid_entry(const GeomInfo& g, std::uint32_t info) {
+// The grid entry of geom `i` of the table.
+inline GridEntry grid_entry(const GeomView& t, std::uint32_t i) {
     GridEntry e;
-    std::copy(g.aabb, g.aabb + 6, e.aabb);
-    e.tag = GridTag{g.body, info, g.flags};
+    t.aabb(i, e.aabb);
+    e.tag = GridTag{t.info[i].body, i, t.flags(i)};
     return e;
 }
 
@@ -50,12 +50,15 @@ struct CellBounds {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
     double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     double ext = 0;
-    void add(const GeomInfo& g) {
+    // Geom i of the table.
+    void add(const GeomView& t, std::size_t i) {
+        dReal b[6];
+        t.aabb(i, b);
         for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], g.aabb[2 * k]);
-            hi[k] = std::max(hi[k], g.aabb[2 * k]);
+            lo[k] = std::min(lo[k], b[2 * k]);
+            hi[k] = std::max(hi[k], b[2 * k]);
         }
-        ext = std::max(ext, g.extent);
+        ext = std::max(ext, t.extent(i));
     }
     void add(const CellBounds& b) {
         for (int k = 0; k < 3; ++k) {
@@ -114,7 +117,7 @@ private:
     void sparse_range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin,
                       std::uint32_t& end) const;
     void choose_cells(const CellBounds& bounds, bool empty);
-    std::uint64_t cell_key(const GeomInfo& g) const;
+    std::uint64_t cell_key(const dReal* aabb) const;
     void compute_keys(const GeomTable& infos, const std::vector<std::uint32_t>& items);
     void sort_dense(std::size_t ncells);
     void count_slabs(std::size_t tasks, std::size_t nslabs);

@@ -1,4 +1,4 @@
-// Reading geoms into GeomInfo records (see geom_info.hpp): class, enabled and
+// Reading geoms into the geom table (see geom_info.hpp): class, enabled and
 // zero-size state as ODE's spaces judge it, AABB, body, bits, id and the data of
 // the sphere/plane fast paths.
 // Trade-off: every getter is a call into ODE; they run once per geom per call,
@@ -59,35 +59,33 @@ void read_prim(dGeomID g, std::uint32_t flags, PrimData& p) {
     }
 }
 
-// ODE's dxSphere::computeAABB on the position and radius read_prim took from
-// ODE: the same bits as dGeomGetAABB, current even when nobody told the space
-// that the sphere's body moved (World::defer_moves), and no write to the geom.
-void sphere_aabb(const dReal p[4], dReal aabb[6]) {
-    for (int k = 0; k < 3; ++k) {
-        aabb[2 * k] = p[k] - p[3];
-        aabb[2 * k + 1] = p[k] + p[3];
-    }
-}
-
-void read_extent(GeomInfo& info) {
+void read_extent(GeomFull& info) {
     bool finite = true;
     for (int k = 0; k < 6; ++k) finite = finite && std::isfinite(info.aabb[k]);
     info.extent = 0;
     if (!finite) return;
     info.flags |= kFinite;
-    for (int k = 0; k < 3; ++k) info.extent = std::max(info.extent, info.aabb[2 * k + 1] - info.aabb[2 * k]);
+    info.extent = aabb_extent(info.aabb);
+}
+
+// A sphere without offset whose bits fit the flags: the table keeps no more
+// than its GeomInfo.
+bool plain_sphere(const GeomFull& g) {
+    return (g.flags & kSphere) && !(g.flags & (kWideBits | kStaleAabb)) && !dGeomIsOffset(g.prim.geom);
 }
 
 }  // namespace
 
-GeomInfo read_geom(dGeomID g, bool primitives_only) {
-    GeomInfo info;
+GeomFull read_geom(dGeomID g, bool primitives_only) {
+    GeomFull info;
     const int cls = dGeomGetClass(g);
     info.flags = class_flags(g, cls);
     if (primitives_only && !(info.flags & kSafe)) {
         if (dGeomIsEnabled(g) && !zero_sized(g, cls)) info.flags |= kEnabled;
         info.flags |= kStaleAabb;
         info.prim.geom = g;
+        info.prim.flags = info.flags;
+        info.body = nullptr;
         return info;
     }
     read_prim(g, info.flags, info.prim);  // a sphere's position and radius, read once
@@ -98,22 +96,65 @@ GeomInfo read_geom(dGeomID g, bool primitives_only) {
     info.collide = dGeomGetCollideBits(g);
     if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
     info.flags |= pack_bits(info.category, info.collide);
-    info.prim.flags = info.flags;
+    // ODE's formula on the position and radius read_prim took from ODE: the
+    // same bits as dGeomGetAABB, current even when nobody told the space that
+    // the sphere's body moved (World::defer_moves), and no write to the geom.
     if ((info.flags & kSphere) && !dGeomIsOffset(g)) {
         sphere_aabb(info.prim.p, info.aabb);
     } else {
         dGeomGetAABB(g, info.aabb);
     }
     read_extent(info);
+    if (!plain_sphere(info)) info.flags |= kAux;
+    info.prim.flags = info.flags;
     return info;
 }
 
+void GeomTable::resize(std::size_t n) {
+    info_.resize(n);
+    scratch_resize(aux_, n);  // no element is touched until a geom needs it
+}
+
+void GeomTable::set(GeomInfo* info, GeomAux* aux, std::size_t i, const GeomFull& g) {
+    GeomInfo r;
+    r.prim = g.prim;
+    r.prim.flags = g.flags;
+    r.body = g.body;
+    info[i] = r;
+    if (!(g.flags & kAux)) return;
+    GeomAux& a = aux[i];
+    std::copy(g.aabb, g.aabb + 6, a.aabb);
+    a.category = g.category;
+    a.collide = g.collide;
+    a.extent = g.extent;
+}
+
+GeomFull GeomView::full(std::size_t i) const {
+    GeomFull g;
+    const GeomInfo& r = info[i];
+    g.prim = r.prim;
+    g.flags = r.prim.flags;
+    g.body = r.body;
+    aabb(i, g.aabb);
+    g.extent = extent(i);
+    if (g.flags & kAux) {
+        g.category = aux[i].category;
+        g.collide = aux[i].collide;
+    } else {  // bits that fit the flags: their low bytes, as pack_bits keeps them
+        g.category = (g.flags >> 16) & 0xff;
+        g.collide = (g.flags >> 24) & 0xff;
+        if (g.category == 0xff) g.category = ~0ul;
+        if (g.collide == 0xff) g.collide = ~0ul;
+    }
+    return g;
+}
+
 void refresh_stale(GeomTable& infos) {
-    for (GeomInfo& info : infos) {
-        if (!(info.flags & kStaleAabb)) continue;
-        dGeomID g = info.prim.geom;
+    for (std::size_t i = 0; i < infos.size(); ++i) {
+        if (!(infos[i].prim.flags & kStaleAabb)) continue;
+        dGeomID g = infos[i].prim.geom;
         if (dGeomIsSpace(g)) dSpaceClean(reinterpret_cast<dSpaceID>(g));
-        info = read_geom(g);
+        infos.set(i, read_geom(g));
     }
 }
 
@@ -136,15 +177,16 @@ void prefetch_record(const void* p) {
 }
 
 // Reads geoms [begin, end) of src into dst; returns the union of their flags.
-std::uint32_t read_range(const dGeomID* src, GeomInfo* dst, std::size_t begin, std::size_t end) {
+std::uint32_t read_range(const dGeomID* src, GeomInfo* dst, GeomAux* aux, std::size_t begin, std::size_t end) {
     std::uint32_t f = 0;
     for (std::size_t i = begin; i < end; ++i) {
         if (i + kGeomAhead < end) prefetch_record(src[i + kGeomAhead]);
         if (i + kBodyAhead < end) {
             if (dBodyID b = dGeomGetBody(src[i + kBodyAhead])) __builtin_prefetch(dBodyGetPosition(b));
         }
-        dst[i] = read_geom(src[i], true);
-        f |= dst[i].flags;
+        const GeomFull g = read_geom(src[i], true);
+        GeomTable::set(dst, aux, i, g);
+        f |= g.flags;
     }
     return f;
 }
@@ -163,12 +205,13 @@ std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
     const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
+    GeomAux* aux = out.aux();
     const dGeomID* src = geoms.data();
     const std::size_t blocks = task_count(n, 1024);
     std::vector<std::uint32_t> any(blocks, 0);
     std::uint32_t* flags = any.data();
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, src, n, blocks, flags)
-    for (std::size_t b = 0; b < blocks; ++b) flags[b] = read_range(src, dst, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, aux, src, n, blocks, flags)
+    for (std::size_t b = 0; b < blocks; ++b) flags[b] = read_range(src, dst, aux, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
     return union_of(any);
 }
 
@@ -181,12 +224,13 @@ std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
     std::vector<std::uint32_t> any(blocks, 0);
     dGeomID* src = geoms.data();
     GeomInfo* dst = out.data();
+    GeomAux* aux = out.aux();
     std::uint32_t* flags = any.data();
     for (std::size_t b = 0; b < blocks; ++b) {
         const std::size_t begin = task_begin(n, blocks, b), end = task_begin(n, blocks, b + 1);
         for (std::size_t i = begin; i < end; ++i) src[i] = dSpaceGetGeom(space, static_cast<int>(i));
-#pragma omp task default(none) firstprivate(src, dst, flags, b, begin, end)
-        flags[b] = read_range(src, dst, begin, end);
+#pragma omp task default(none) firstprivate(src, dst, aux, flags, b, begin, end)
+        flags[b] = read_range(src, dst, aux, begin, end);
     }
 #pragma omp taskwait
     return union_of(any);

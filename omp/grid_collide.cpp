@@ -47,10 +47,10 @@ int default_threads() {
 // (90th percentile of a sample) extent, so one outlier cannot coarsen the grid.
 double big_threshold(const GeomTable& infos) {
     std::vector<double> sample;
+    const GeomView t = infos.view();
     const std::size_t stride = std::max<std::size_t>(1, infos.size() / 512);
     for (std::size_t i = 0; i < infos.size(); i += stride) {
-        const GeomInfo& g = infos[i];
-        if ((g.flags & kEnabled) && (g.flags & kFinite)) sample.push_back(g.extent);
+        if ((t.flags(i) & kEnabled) && (t.flags(i) & kFinite)) sample.push_back(t.extent(i));
     }
     if (sample.empty()) return 0;
     auto p90 = sample.begin() + static_cast<long>(sample.size() * 9 / 10);
@@ -150,7 +150,7 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
     in.big = big_entries.data();
     in.big_prims = big_prims.data();
     in.nbig = big_entries.size();
-    in.infos = infos.data();
+    in.infos = infos.view();
     in.max_contacts = max_contacts;
     return in;
 }
@@ -172,18 +172,18 @@ void CollideEngine::Impl::split_items() {
     const std::size_t blocks = task_count(n, 2048);
     bucket.resize(n);
     parts.assign(blocks, SplitPart{});
-    const GeomInfo* info = infos.data();
+    const GeomView info = infos.view();
     std::uint8_t* mark = bucket.data();
     SplitPart* part = parts.data();
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(info, mark, part, n, blocks, limit)
     for (std::size_t b = 0; b < blocks; ++b) {
         SplitPart p;  // a local, stored once: neighbouring blocks' parts share cache lines
         for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
-            const std::uint32_t f = info[i].flags;
-            const bool is_small = (f & kFinite) && info[i].extent <= limit;
+            const std::uint32_t f = info.flags(i);
+            const bool is_small = (f & kFinite) && info.extent(i) <= limit;
             const std::uint8_t m = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
             mark[i] = m;
-            if (m == 1) p.bounds.add(info[i]);
+            if (m == 1) p.bounds.add(info, i);
             p.small += m == 1;
             p.big += m == 2;
         }
@@ -223,10 +223,10 @@ void CollideEngine::Impl::list_split(std::size_t blocks) {
 void CollideEngine::Impl::build_big() {
     big_entries.resize(big.size());
     big_prims.resize(big.size());
+    const GeomView t = infos.view();
     for (std::size_t j = 0; j < big.size(); ++j) {
-        const GeomInfo& g = infos[big[j]];
-        big_entries[j] = grid_entry(g, big[j]);
-        big_prims[j] = g.prim;
+        big_entries[j] = grid_entry(t, big[j]);
+        big_prims[j] = infos[big[j]].prim;
     }
 }
 
@@ -265,8 +265,8 @@ void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
     times.pairs += t3 - t2;
     if (!recurse) return;
     std::vector<dSpaceID> nested;
-    for (const GeomInfo& g : infos) {
-        if (g.flags & kSpace) nested.push_back(reinterpret_cast<dSpaceID>(g.prim.geom));
+    for (std::size_t i = 0; i < infos.size(); ++i) {
+        if (infos[i].prim.flags & kSpace) nested.push_back(reinterpret_cast<dSpaceID>(infos[i].prim.geom));
     }
     for (dSpaceID s : nested) space_internal(s, true);
 }
@@ -276,7 +276,7 @@ void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
 // reverse when `swap`, as ODE's swap_callback gives it.
 void CollideEngine::Impl::space_vs_geoms(dSpaceID space, const std::vector<dGeomID>& geoms,
                                          bool swap) {
-    std::vector<GeomInfo> others;
+    std::vector<GeomFull> others;
     for (dGeomID g : geoms) {
         dReal aabb[6];
         dGeomGetAABB(g, aabb);  // serial: brings the AABB up to date
@@ -284,7 +284,8 @@ void CollideEngine::Impl::space_vs_geoms(dSpaceID space, const std::vector<dGeom
     }
     read_space(space);
     if (use_reference) return;
-    const GeomInfo* other = others.data();  // a task would copy the vector itself
+    const GeomFull* other = others.data();  // a task would copy the vector itself
+    const GeomView table = infos.view();
     const std::size_t nothers = others.size();
     const std::size_t n = infos.size();
     const std::size_t chunks = (n + kScanChunk - 1) / kScanChunk;
@@ -293,10 +294,10 @@ void CollideEngine::Impl::space_vs_geoms(dSpaceID space, const std::vector<dGeom
         Lane& l = lane();
         const std::size_t end = std::min(n, (c + 1) * kScanChunk);
         for (std::size_t h = c * kScanChunk; h < end; ++h) {
-            const GeomInfo& a = infos[h];
-            if (!(a.flags & kEnabled)) continue;
+            if (!(table.flags(h) & kEnabled)) continue;
+            const GeomFull a = table.full(h);
             for (std::size_t j = 0; j < nothers; ++j) {
-                const GeomInfo& b = other[j];
+                const GeomFull& b = other[j];
                 if (!ode_pair_filter(a, b)) continue;
                 if (swap) {
                     emit(l, b.flags, b.prim, a.flags, a.prim);
@@ -332,7 +333,7 @@ void CollideEngine::Impl::pair2(dGeomID g1, dGeomID g2) {
     dReal aabb[6];
     dGeomGetAABB(g1, aabb);
     dGeomGetAABB(g2, aabb);
-    const GeomInfo a = read_geom(g1), b = read_geom(g2);
+    const GeomFull a = read_geom(g1), b = read_geom(g2);
     if (ode_pair_filter(a, b)) lane().generic(g1, g2, max_contacts);
 }
 

@@ -12,7 +12,7 @@ namespace {
 // ODE's collideAABBs filter beyond the AABB test: same body, category and
 // collide bits (from the flags, or from infos when they do not fit there).
 bool tags_pass(const PairInputs& in, const GridTag& a, const GridTag& b) {
-    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos[a.info], in.infos[b.info])
+    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos.full(a.info), in.infos.full(b.info))
                                                         : packed_bits_pass(a.flags, b.flags);
     return !(a.body && a.body == b.body) & bits;
 }

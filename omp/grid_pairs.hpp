@@ -27,7 +27,7 @@ struct PairInputs {
     const GridEntry* big = nullptr;       // big list: entries and their prims
     const PrimData* big_prims = nullptr;
     std::size_t nbig = 0;
-    const GeomInfo* infos = nullptr;      // for bits beyond the entries' flags
+    GeomView infos;                       // for bits beyond the entries' flags
     int max_contacts = 1;
 };
 

@@ -119,8 +119,10 @@ void RandomScene::apply_specials(dGeomID g) {
     const double u = uniform(0, 1);
     if (u < 0.08) dGeomDisable(g);
     if (uniform(0, 1) < 0.2) {
-        dGeomSetCategoryBits(g, 1ul << static_cast<int>(uniform(0, 3)));
-        dGeomSetCollideBits(g, 1ul << static_cast<int>(uniform(0, 3)));
+        // Bit 40 is beyond what the collider's flags hold (kWideBits).
+        const int bit[4] = {0, 1, 2, 40};
+        dGeomSetCategoryBits(g, 1ul << bit[static_cast<int>(uniform(0, 3.999))]);
+        dGeomSetCollideBits(g, 1ul << bit[static_cast<int>(uniform(0, 3.999))]);
     }
 }
 
