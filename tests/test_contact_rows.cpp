@@ -184,7 +184,14 @@ TEST(ContactRows, SphereRowEffectiveMassesAreTheBlocks) {
     build_block(f, in, block);
     ASSERT_EQ(block.rows, 3);
     const double cf = in.cfm * in.fps;
-    const double ad[3] = {row.ad_n, row.ad_t, row.ad_t};
+    BodyRow B[2] = {};
+    for (int j = 0; j < 2; ++j) {
+        B[j].invm = invm[j];
+        B[j].invi = invi[j];
+    }
+    double ad_n = 0, ad_t = 0;
+    sphere_row_masses(row, B[0], B[1], SphereRowConstants{in.sor_w, cf}, ad_n, ad_t);
+    const double ad[3] = {ad_n, ad_t, ad_t};
     for (int r = 0; r < 3; ++r) {
         const double block_ad = block.cfm[r] / cf;
         EXPECT_NEAR(ad[r], block_ad, 1e-12 * block_ad) << "row " << r;

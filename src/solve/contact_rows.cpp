@@ -54,15 +54,12 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     tangent_frame(K.n, t1, t2);
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
-    const double m = in.invm[0] + (two ? in.invm[1] : 0.0);
-    const double k = in.invi[0] * K.r1 * K.r1 + (two ? in.invi[1] * K.r2 * K.r2 : 0.0);
+    // The effective masses are not stored: the relaxation computes them from
+    // the bodies' rows (sphere_row_masses).
     double closing = dot3(f.n, in.vel[0]);
     if (two) closing -= dot3(f.n, in.vel[1]);
     double c[3], cfm[3];
-    targets(f, in, closing, c, cfm);
-    K.cfm = cfm[0] * in.fps;
-    K.ad_n = in.sor_w / (m + K.cfm);
-    K.ad_t = in.sor_w / (m + k + K.cfm);
+    targets(f, in, closing, c, cfm);  // cfm: every row's is the solver's (SphereRowConstants)
     const double* lin[3] = {K.n, t1, t2};
     const double ang[3][3] = {{0, 0, 0}, {-t2[0], -t2[1], -t2[2]}, {t1[0], t1[1], t1[2]}};
     for (int r = 0; r < 3; ++r) {
@@ -122,24 +119,32 @@ bool avx_available() {
 bool use_four = avx_available();
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies) {
-    relax_lanes<detail::Quad, 4>(K, bodies);
+__attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+    relax_lanes<detail::Quad, 4>(K, bodies, c);
 }
 #else
-void relax_avx(SphereRow* const* K, BodyRow* bodies) {
-    relax_lanes<detail::Pair, 2>(K, bodies);
-    relax_lanes<detail::Pair, 2>(K + 2, bodies);
+void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+    relax_lanes<detail::Pair, 2>(K, bodies, c);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
 }
 #endif
 }  // namespace
 
-void relax_four(SphereRow* const* K, BodyRow* bodies) {
+void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
     if (use_four) {
-        relax_avx(K, bodies);
+        relax_avx(K, bodies, c);
         return;
     }
-    relax_lanes<detail::Pair, 2>(K, bodies);
-    relax_lanes<detail::Pair, 2>(K + 2, bodies);
+    relax_lanes<detail::Pair, 2>(K, bodies, c);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
+}
+
+void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
+                       double& ad_n, double& ad_t) {
+    const double m = B1.invm + B2.invm;
+    const double k = K.r1 * (B1.invi * K.r1) + K.r2 * (B2.invi * K.r2);
+    ad_n = c.sor_w / (m + c.cfm);
+    ad_t = c.sor_w / (m + k + c.cfm);
 }
 
 bool four_lanes() { return use_four; }

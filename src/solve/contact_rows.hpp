@@ -4,18 +4,21 @@
 // normal row has no angular part and each friction row's angular part is the
 // lever length times (tangent x normal) = -t2 for t1 and t1 for t2. The row
 // keeps the normal (the tangents follow from it, tangent_frame), the two
-// lever lengths, the effective masses (SOR factor over J inv(M) J^T + CFM:
-// one for the normal row, one for both friction rows, whose J inv(M) J^T are
-// equal for unit tangents), right-hand sides and impulses: 128 bytes, two
-// cache lines, against 650 for the general Block, which keeps J and
-// inv(M) J^T as 3 x 12 doubles for any other contact. The masses come from
-// the bodies' BodyRow (inverse mass and inverse inertia beside the velocity
-// corrections, one cache line a body).
-// Trade-off: two code paths for one contact model, and the tangents
-// recomputed at every relaxation (a square root per contact) to halve what a
-// sweep reads; the sphere path drops the rounding-level angular terms the
-// general Jacobian carries, so the two agree to rounding, not bit for bit
-// (test_contact_rows holds them together).
+// lever lengths, friction coefficient, right-hand sides and impulses: 104
+// bytes, against 650 for the general Block, which keeps J and inv(M) J^T as
+// 3 x 12 doubles for any other contact. The effective masses (SOR factor
+// over J inv(M) J^T + CFM: one for the normal row, one for both friction
+// rows, whose J inv(M) J^T are equal for unit tangents) are recomputed at
+// each relaxation from the bodies' BodyRow (inverse mass and inverse inertia
+// beside the velocity corrections, one cache line a body, read anyway) and
+// the step's SphereRowConstants: the same operations on the same numbers as
+// the build's, so the same bits.
+// Trade-off: two code paths for one contact model, and the tangents and
+// effective masses recomputed at every relaxation (a square root and two
+// divisions per contact: the sweeps measured 2-4 % slower at 10^6, README.md)
+// for 24 bytes less per contact; the sphere path drops the rounding-level
+// angular terms the general Jacobian carries, so the two agree to rounding,
+// not bit for bit (test_contact_rows holds them together).
 #pragma once
 #include <ode/ode.h>
 
@@ -34,17 +37,23 @@ struct alignas(64) BodyRow {
     double invi;
 };
 
-struct alignas(64) SphereRow {
+struct SphereRow {
     std::int32_t b1, b2;  // body slots; b2 < 0: static
     double n[3];          // into body 1
-    double r1, r2;        // lever lengths: contact point = x1 - r1 n = x2 + r2 n
-    double ad_n, ad_t;    // SOR w / (J inv(M) J^T + cfm): normal row, friction rows
+    double r1, r2;        // lever lengths: contact point = x1 - r1 n = x2 + r2 n; r2 = 0 when static
     double rhs[3];        // target velocity terms, unscaled
     double lambda[3];
-    double cfm;           // cfm / dt, every row
     double mu;            // friction rows clamped to +-mu lambda[0] (to 0 when mu = 0)
 };
-static_assert(sizeof(SphereRow) == 128, "a sphere row is two cache lines");
+static_assert(sizeof(SphereRow) == 104, "a sphere row is 13 doubles");
+
+// What every sphere row of a step shares: the SOR factor and CFM / dt (the
+// solver keeps a contact as a SphereRow only where all its rows' CFM is the
+// solver's, ContactSolver::sphere_pair).
+struct SphereRowConstants {
+    double sor_w;
+    double cfm;  // cfm / dt
+};
 
 struct Block {
     std::int32_t b1 = -1, b2 = -1;  // body slots; b2 < 0: static
@@ -76,6 +85,10 @@ struct RowInputs {
 };
 
 void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K);
+// The row's effective masses: SOR w / (J inv(M) J^T + cfm) of the normal row
+// and of the friction rows, as the relaxation computes them.
+void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
+                       double& ad_n, double& ad_t);
 void build_block(const ContactFrame& f, const RowInputs& in, Block& K);
 
 // Impulses in, velocity corrections out (warm start).
@@ -185,7 +198,7 @@ PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
 // reads as a body at rest with zero inverse mass; the friction rows of a
 // frictionless contact are clamped to zero: every lane runs the same code.
 template <class V, int L>
-PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
+PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
     using namespace detail;
     static const BodyRow none{};
     const BodyRow* B1[L];
@@ -204,14 +217,17 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
     const V r1 = gather_lanes<V, L>([&](int l) { return K[l]->r1; }), r2 = gather_lanes<V, L>([&](int l) { return K[l]->r2; });
     const V m1 = gather_lanes<V, L>([&](int l) { return B1[l]->invm; }), m2 = gather_lanes<V, L>([&](int l) { return B2[l]->invm; });
     const V k1 = gather_lanes<V, L>([&](int l) { return B1[l]->invi; }) * r1, k2 = gather_lanes<V, L>([&](int l) { return B2[l]->invi; }) * r2;
-    const V cfm = gather_lanes<V, L>([&](int l) { return K[l]->cfm; }), mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
-    const V ad_n = gather_lanes<V, L>([&](int l) { return K[l]->ad_n; }), ad_t = gather_lanes<V, L>([&](int l) { return K[l]->ad_t; });
+    const V mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
     V rhs[3], lam[3];
     for (int r = 0; r < 3; ++r) {
         rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
         lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
     }
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
+    // The effective masses exactly as sphere_row_masses computes them (m2
+    // and k2 are zero for a static partner, and x + 0 is x).
+    const V cfm = splat<V>(c.cfm), w_sor = splat<V>(c.sor_w);
+    const V ad_n = w_sor / (m + cfm), ad_t = w_sor / (m + k + cfm);
     V u[3], w[3];
     for (int i = 0; i < 3; ++i) {
         u[i] = f1[i] - f2[i];
@@ -256,14 +272,14 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies) {
     }
 }
 
-inline void relax(SphereRow& K, BodyRow* bodies) {
+inline void relax(SphereRow& K, BodyRow* bodies, const SphereRowConstants& c) {
     SphereRow* one = &K;
-    relax_lanes<double, 1>(&one, bodies);
+    relax_lanes<double, 1>(&one, bodies, c);
 }
 
 // Four contacts that share no body, in the four lanes of an AVX register when
 // the processor has AVX (bit for bit the same as two pairs).
-void relax_four(SphereRow* const* K, BodyRow* bodies);
+void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c);
 // Whether relax_four uses AVX; tests may turn it off to compare.
 bool four_lanes();
 void set_four_lanes(bool on);

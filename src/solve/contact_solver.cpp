@@ -212,6 +212,11 @@ void ContactSolver::prefetch_row(std::size_t p) const {
     __builtin_prefetch(at + 64, 1);
 }
 
+// The same bits as build_row's: CFM times 1 / dt.
+SphereRowConstants ContactSolver::row_constants() const {
+    return SphereRowConstants{scene_.solver.sor_w, scene_.solver.cfm * (1.0 / scene_.dt)};
+}
+
 void ContactSolver::build_row(std::size_t k) {
     const std::size_t p = layout_.position(k);
     const ContactRecord& r = contacts_->items()[k];
@@ -315,6 +320,7 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
     constexpr int kStreams = 4;
     constexpr std::size_t kAhead = 4;
     BodyRow* hot = hot_.data();
+    const SphereRowConstants rc = row_constants();
     std::size_t at[kStreams], end[kStreams];
     const std::size_t p0 = layout_.cell_begin(t0), p1 = layout_.cell_begin(t1);
     std::size_t t = t0;
@@ -341,6 +347,7 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
             if (p + 4 * kAhead < end[s]) {
                 const char* row = reinterpret_cast<const char*>(&rows_[p + 4 * kAhead]);
                 for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);
+                __builtin_prefetch(row + sizeof(SphereRow) - 1, 1);  // rows straddle lines
             }
             SphereRow& K = rows_[p];
             if (K.b1 < 0) {
@@ -349,10 +356,10 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
             }
             pack[held++] = &K;
         }
-        if (held == 4) relax_four(pack, hot);
-        else if (held >= 2) relax_lanes<detail::Pair, 2>(pack, hot);
-        if (held == 3) relax_lanes<double, 1>(pack + 2, hot);
-        if (held == 1) relax_lanes<double, 1>(pack, hot);
+        if (held == 4) relax_four(pack, hot, rc);
+        else if (held >= 2) relax_lanes<detail::Pair, 2>(pack, hot, rc);
+        if (held == 3) relax_lanes<double, 1>(pack + 2, hot, rc);
+        if (held == 1) relax_lanes<double, 1>(pack, hot, rc);
     }
 }
 

@@ -94,6 +94,7 @@ protected:
     // Relaxes (or, with `warm`, applies the warm-start impulses of) cells
     // [t0, t1) of one colour.
     void relax_cells(std::size_t t0, std::size_t t1);
+    SphereRowConstants row_constants() const;
     void warm_cells(std::size_t t0, std::size_t t1);
     // `passes` sweeps over the colours; after each colour, exchange_after.
     // omp/ overrides this with its threaded sweep.
