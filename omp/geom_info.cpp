@@ -68,10 +68,16 @@ void read_extent(GeomFull& info) {
     info.extent = aabb_extent(info.aabb);
 }
 
-// A sphere without offset whose bits fit the flags: the table keeps no more
-// than its GeomInfo.
+// Bits the flags give back exactly (GeomView::full): below 0xff, or all ones.
+// 0xff itself fits the flags for the packed test, but reads back as all ones,
+// which differs against a geom with wide bits.
+bool bits_recoverable(unsigned long bits) { return bits < 0xff || bits == ~0ul; }
+
+// A sphere without offset whose bits the flags give back exactly: the table
+// keeps no more than its GeomInfo.
 bool plain_sphere(const GeomFull& g) {
-    return (g.flags & kSphere) && !(g.flags & (kWideBits | kStaleAabb)) && !dGeomIsOffset(g.prim.geom);
+    return (g.flags & kSphere) && !(g.flags & (kWideBits | kStaleAabb)) && bits_recoverable(g.category) &&
+           bits_recoverable(g.collide) && !dGeomIsOffset(g.prim.geom);
 }
 
 }  // namespace
@@ -140,7 +146,7 @@ GeomFull GeomView::full(std::size_t i) const {
     if (g.flags & kAux) {
         g.category = aux[i].category;
         g.collide = aux[i].collide;
-    } else {  // bits that fit the flags: their low bytes, as pack_bits keeps them
+    } else {  // bits below 0xff or all ones (plain_sphere): their low bytes, as pack_bits keeps them
         g.category = (g.flags >> 16) & 0xff;
         g.collide = (g.flags >> 24) & 0xff;
         if (g.category == 0xff) g.category = ~0ul;

@@ -4,7 +4,7 @@
 // requires every AABB to be current (dSpaceClean first): then the ODE getters
 // used here only read.
 // The table keeps one cache line per geom (GeomInfo: the narrowphase's data and
-// the body). A plain sphere (no offset, bits that fit the flags) needs nothing
+// the body). A plain sphere (no offset, bits below 0xff or all ones) needs nothing
 // more: its AABB is ODE's formula on its centre and radius, recomputed where
 // needed. Any other geom also has its AABB, extent and bits in a side table
 // (GeomAux), which a scene of plain spheres never touches.

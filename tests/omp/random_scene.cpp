@@ -119,10 +119,11 @@ void RandomScene::apply_specials(dGeomID g) {
     const double u = uniform(0, 1);
     if (u < 0.08) dGeomDisable(g);
     if (uniform(0, 1) < 0.2) {
-        // Bit 40 is beyond what the collider's flags hold (kWideBits).
-        const int bit[4] = {0, 1, 2, 40};
-        dGeomSetCategoryBits(g, 1ul << bit[static_cast<int>(uniform(0, 3.999))]);
-        dGeomSetCollideBits(g, 1ul << bit[static_cast<int>(uniform(0, 3.999))]);
+        // Bit 40 is beyond what the collider's flags hold (kWideBits); 0xff
+        // has the low byte of all ones, which the flags also stand for.
+        const unsigned long mask[5] = {1ul, 2ul, 4ul, 1ul << 40, 0xfful};
+        dGeomSetCategoryBits(g, mask[static_cast<int>(uniform(0, 4.999))]);
+        dGeomSetCollideBits(g, mask[static_cast<int>(uniform(0, 4.999))]);
     }
 }
 
