@@ -141,10 +141,7 @@ void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& 
 
 void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
                        double& ad_n, double& ad_t) {
-    const double m = B1.invm + B2.invm;
-    const double k = K.r1 * (B1.invi * K.r1) + K.r2 * (B2.invi * K.r2);
-    ad_n = c.sor_w / (m + c.cfm);
-    ad_t = c.sor_w / (m + k + c.cfm);
+    effective_masses(B1.invm + B2.invm, K.r1 * (B1.invi * K.r1) + K.r2 * (B2.invi * K.r2), c, ad_n, ad_t);
 }
 
 bool four_lanes() { return use_four; }

@@ -169,6 +169,18 @@ PARODE_LANE_INLINE V root(V v) {
 }
 }  // namespace detail
 
+// The effective masses of a sphere row, SOR w / (J inv(M) J^T + cfm), from
+// m = invm1 + invm2 and k = r1 (invi1 r1) + r2 (invi2 r2): the same bits
+// as the build's sums (m2 and k2 are zero for a static partner, and x + 0 is
+// x). The relaxation and sphere_row_masses both compute them here.
+template <class V>
+PARODE_LANE_INLINE void effective_masses(V m, V k, const SphereRowConstants& c, V& ad_n, V& ad_t) {
+    using detail::splat;
+    const V cfm = splat<V>(c.cfm), w = splat<V>(c.sor_w);
+    ad_n = w / (m + cfm);
+    ad_t = w / (m + k + cfm);
+}
+
 // Unit tangents t1, t2 = n x t1 of a unit normal n, as ODE's dPlaneSpace
 // builds them (t1 in the y-z plane when |n_z| > sqrt(1/2), else in x-y), the
 // same bits whether a lane of V or a double.
@@ -224,10 +236,9 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
     }
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
-    // The effective masses exactly as sphere_row_masses computes them (m2
-    // and k2 are zero for a static partner, and x + 0 is x).
-    const V cfm = splat<V>(c.cfm), w_sor = splat<V>(c.sor_w);
-    const V ad_n = w_sor / (m + cfm), ad_t = w_sor / (m + k + cfm);
+    const V cfm = splat<V>(c.cfm);
+    V ad_n, ad_t;
+    effective_masses(m, k, c, ad_n, ad_t);
     V u[3], w[3];
     for (int i = 0; i < 3; ++i) {
         u[i] = f1[i] - f2[i];
