@@ -2,7 +2,11 @@
 // zero-size state as ODE's spaces judge it, AABB, body, bits, id and the data of
 // the sphere/plane fast paths.
 // Trade-off: every getter is a call into ODE; they run once per geom per call,
-// spread over tasks, instead of once per candidate pair.
+// spread over tasks, instead of once per candidate pair. Where the caller
+// describes its body spheres (SphereBodies, collide.hpp), only the body's
+// position is read from ODE: one record a geom instead of two and a dozen
+// calls, at the price of trusting the description (World's, tested against
+// this reading in test_omp_determinism).
 #include "geom_info.hpp"
 #include "task_split.hpp"
 
@@ -75,9 +79,30 @@ bool bits_recoverable(unsigned long bits) { return bits < 0xff || bits == ~0ul; 
 
 // A sphere without offset whose bits the flags give back exactly: the table
 // keeps no more than its GeomInfo.
-bool plain_sphere(const GeomFull& g) {
+bool plain_sphere(const GeomFull& g, bool offset) {
     return (g.flags & kSphere) && !(g.flags & (kWideBits | kStaleAabb)) && bits_recoverable(g.category) &&
-           bits_recoverable(g.collide) && !dGeomIsOffset(g.prim.geom);
+           bits_recoverable(g.collide) && !offset;
+}
+
+// The rest of read_geom once the class, prim, enabled state and body are
+// known: bits, AABB, extent and where the table keeps them.
+void finish_geom(GeomFull& info, bool enabled, unsigned long category, unsigned long collide, bool offset) {
+    if (enabled) info.flags |= kEnabled;
+    info.category = category;
+    info.collide = collide;
+    if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
+    info.flags |= pack_bits(info.category, info.collide);
+    // ODE's formula on the position and radius read_prim took from ODE: the
+    // same bits as dGeomGetAABB, current even when nobody told the space that
+    // the sphere's body moved (World::defer_moves), and no write to the geom.
+    if ((info.flags & kSphere) && !offset) {
+        sphere_aabb(info.prim.p, info.aabb);
+    } else {
+        dGeomGetAABB(info.prim.geom, info.aabb);
+    }
+    read_extent(info);
+    if (!plain_sphere(info, offset)) info.flags |= kAux;
+    info.prim.flags = info.flags;
 }
 
 }  // namespace
@@ -96,23 +121,23 @@ GeomFull read_geom(dGeomID g, bool primitives_only) {
     }
     read_prim(g, info.flags, info.prim);  // a sphere's position and radius, read once
     const bool zero = (info.flags & kSphere) ? info.prim.p[3] == 0 : zero_sized(g, cls);
-    if (dGeomIsEnabled(g) && !zero) info.flags |= kEnabled;
     info.body = dGeomGetBody(g);
-    info.category = dGeomGetCategoryBits(g);
-    info.collide = dGeomGetCollideBits(g);
-    if (info.category != ~0ul || info.collide != ~0ul) info.flags |= kCustomBits;
-    info.flags |= pack_bits(info.category, info.collide);
-    // ODE's formula on the position and radius read_prim took from ODE: the
-    // same bits as dGeomGetAABB, current even when nobody told the space that
-    // the sphere's body moved (World::defer_moves), and no write to the geom.
-    if ((info.flags & kSphere) && !dGeomIsOffset(g)) {
-        sphere_aabb(info.prim.p, info.aabb);
-    } else {
-        dGeomGetAABB(g, info.aabb);
-    }
-    read_extent(info);
-    if (!plain_sphere(info)) info.flags |= kAux;
-    info.prim.flags = info.flags;
+    finish_geom(info, dGeomIsEnabled(g) && !zero, dGeomGetCategoryBits(g), dGeomGetCollideBits(g),
+                (info.flags & kSphere) && dGeomIsOffset(g));
+    return info;
+}
+
+GeomFull hinted_sphere(dGeomID g, const SphereBodies& s, std::size_t i) {
+    GeomFull info;
+    info.flags = kSafe | kSphere;
+    info.prim.geom = g;
+    info.prim.id = (*s.ids)[i];
+    info.body = (*s.bodies)[i];
+    const dReal* pos = dBodyGetPosition(info.body);
+    for (int k = 0; k < 3; ++k) info.prim.p[k] = pos[k];
+    info.prim.p[3] = s.radius(info.prim.id);
+    const std::uint8_t ghost = (*s.ghost)[i] ? 1 : 0;
+    finish_geom(info, info.prim.p[3] != 0, s.category[ghost], s.collide[ghost], false);
     return info;
 }
 
@@ -183,14 +208,22 @@ void prefetch_record(const void* p) {
 }
 
 // Reads geoms [begin, end) of src into dst; returns the union of their flags.
-std::uint32_t read_range(const dGeomID* src, GeomInfo* dst, GeomAux* aux, std::size_t begin, std::size_t end) {
+// Geoms below `hinted` take their data from `spheres` and their body's
+// position alone from ODE.
+std::uint32_t read_range(const dGeomID* src, GeomInfo* dst, GeomAux* aux, std::size_t begin, std::size_t end,
+                         const SphereBodies* spheres, std::size_t hinted) {
     std::uint32_t f = 0;
     for (std::size_t i = begin; i < end; ++i) {
-        if (i + kGeomAhead < end) prefetch_record(src[i + kGeomAhead]);
-        if (i + kBodyAhead < end) {
-            if (dBodyID b = dGeomGetBody(src[i + kBodyAhead])) __builtin_prefetch(dBodyGetPosition(b));
+        const std::size_t body_ahead = i + kBodyAhead;
+        if (body_ahead < hinted && body_ahead < end) {
+            __builtin_prefetch(dBodyGetPosition((*spheres->bodies)[body_ahead]));
+        } else if (i + kGeomAhead < end) {
+            prefetch_record(src[i + kGeomAhead]);
+            if (body_ahead < end) {
+                if (dBodyID b = dGeomGetBody(src[body_ahead])) __builtin_prefetch(dBodyGetPosition(b));
+            }
         }
-        const GeomFull g = read_geom(src[i], true);
+        const GeomFull g = i < hinted ? hinted_sphere(src[i], *spheres, i) : read_geom(src[i], true);
         GeomTable::set(dst, aux, i, g);
         f |= g.flags;
     }
@@ -207,17 +240,20 @@ std::uint32_t union_of(const std::vector<std::uint32_t>& flags) {
 
 // Each task keeps the union of the flags it read in its own entry; the union
 // over tasks is serial (a few hundred entries, not a pass over the table).
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out) {
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out, const SphereBodies* spheres) {
     const std::size_t n = geoms.size();
     out.resize(geoms.size());
     GeomInfo* dst = out.data();
     GeomAux* aux = out.aux();
     const dGeomID* src = geoms.data();
+    const std::size_t hinted = spheres ? std::min(n, spheres->bodies->size()) : 0;
     const std::size_t blocks = task_count(n, 1024);
     std::vector<std::uint32_t> any(blocks, 0);
     std::uint32_t* flags = any.data();
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, aux, src, n, blocks, flags)
-    for (std::size_t b = 0; b < blocks; ++b) flags[b] = read_range(src, dst, aux, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(dst, aux, src, n, blocks, flags, spheres, hinted)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        flags[b] = read_range(src, dst, aux, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), spheres, hinted);
+    }
     return union_of(any);
 }
 
@@ -236,7 +272,7 @@ std::uint32_t read_space_pipelined(dSpaceID space, std::vector<dGeomID>& geoms,
         const std::size_t begin = task_begin(n, blocks, b), end = task_begin(n, blocks, b + 1);
         for (std::size_t i = begin; i < end; ++i) src[i] = dSpaceGetGeom(space, static_cast<int>(i));
 #pragma omp task default(none) firstprivate(src, dst, aux, flags, b, begin, end)
-        flags[b] = read_range(src, dst, aux, begin, end);
+        flags[b] = read_range(src, dst, aux, begin, end, nullptr, 0);
     }
 #pragma omp taskwait
     return union_of(any);

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "collide/collide.hpp"
 #include "fast_pairs.hpp"
 #include "util/scratch.hpp"
 #include "util/scratch_pool.hpp"
@@ -154,15 +155,20 @@ private:
 // refresh_stale(), since a nested space's AABB needs dSpaceClean first.
 GeomFull read_geom(dGeomID g, bool primitives_only = false);
 
+// The entry read_geom gives geom `g` = geom i of the flat list `s` describes
+// (collide.hpp), from `s` and the position of its body alone.
+GeomFull hinted_sphere(dGeomID g, const SphereBodies& s, std::size_t i);
+
 // Serially refreshes and re-reads the kStaleAabb entries of `infos`.
 void refresh_stale(GeomTable& infos);
 
 // The geoms of a space in ODE's list order (serial: ODE's enumerator is stateful).
 void list_space(dSpaceID space, std::vector<dGeomID>& out);
 
-// read_geom over a list, as OpenMP tasks when called inside a parallel region.
-// Returns the union of all geoms' flags.
-std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out);
+// read_geom over a list, as OpenMP tasks when called inside a parallel region;
+// the geoms `spheres` describes (if not null) through hinted_sphere. Returns
+// the union of all geoms' flags.
+std::uint32_t read_geoms(const std::vector<dGeomID>& geoms, GeomTable& out, const SphereBodies* spheres = nullptr);
 
 // list_space and read_geoms overlapped: the calling thread walks ODE's list
 // (serial, one cache miss per geom in large spaces) and hands each listed

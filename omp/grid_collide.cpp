@@ -69,6 +69,7 @@ struct CollideEngine::Impl {
     std::vector<dGeomID> list;
     dSpaceID flat_space = nullptr;                   // set_geoms hint
     const std::vector<dGeomID>* flat_geoms = nullptr;
+    const SphereBodies* spheres = nullptr;           // set_sphere_bodies hint
     ScratchPool own_pool;                            // unless set_scratch gives a shared one
     GeomTable infos{&own_pool, kSlotGeoms};
     std::vector<std::uint32_t> small, big;
@@ -158,7 +159,7 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
 void CollideEngine::Impl::read_space(dSpaceID space) {
     const bool flat = space == flat_space && flat_geoms &&
                       flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
-    const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos) : read_space_pipelined(space, list, infos);
+    const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos, spheres) : read_space_pipelined(space, list, infos);
     if (any & kStaleAabb) refresh_stale(infos);
     if (any & kUser) use_reference = true;
 }
@@ -375,6 +376,7 @@ void CollideEngine::set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms)
     impl_->flat_space = geoms ? space : nullptr;
     impl_->flat_geoms = geoms;
 }
+void CollideEngine::set_sphere_bodies(const SphereBodies* spheres) { impl_->spheres = spheres; }
 int CollideEngine::threads() const { return impl_->team_size(); }
 const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
 

@@ -47,6 +47,8 @@ public:
     // `space` holds exactly `geoms` and no nested space: read them in parallel
     // instead of walking ODE's list (nullptr forgets the hint).
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms);
+    // With set_geoms: what is known of its first geoms (collide.hpp), or null.
+    void set_sphere_bodies(const SphereBodies* spheres);
     int threads() const;
     // Where the per-call geom tables live (slots kSlotGeoms, kSlotEntries,
     // kSlotPrims of util/scratch_pool.hpp); null: the engine's own pool.
@@ -88,6 +90,7 @@ public:
     void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override;
     void set_threads(int threads) override { engine_.set_threads(threads); }
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
+    void set_sphere_bodies(const SphereBodies* spheres) override { engine_.set_sphere_bodies(spheres); }
     void set_scratch(ScratchPool* pool) override { engine_.set_scratch(pool); }
     bool reads_sphere_poses() const override { return true; }  // read_geom (geom_info.hpp)
     const CollideEngine& engine() const { return engine_; }

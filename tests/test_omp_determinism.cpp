@@ -12,7 +12,9 @@
 
 #include <cstring>
 
+#include "geom_info.hpp"
 #include "run/diagnostics.hpp"
+#include "scene/scene_file.hpp"
 #include "util/exact_sum.hpp"
 #include "util/hash.hpp"
 #include "register.hpp"
@@ -52,6 +54,62 @@ TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
             ASSERT_EQ(0, std::memcmp(&par[k], &serial[k], sizeof(BodyWrench))) << "body " << k << ", " << threads << " threads";
         }
     }
+}
+
+// Two [[bodies]] spheres of other radii before a few catoms.
+const char* kMixedSpheres = R"(
+[scene]
+name = "mixed"
+[[materials]]
+name = "m"
+[[bodies]]
+name = "big"
+shape = "sphere"
+radius = 0.75
+mass = 2.0
+position = [0.0, 0.0, 3.0]
+material = "m"
+[[bodies]]
+name = "small"
+shape = "sphere"
+radius = 0.125
+mass = 0.5
+position = [2.0, 0.0, 3.0]
+material = "m"
+[catoms]
+count = 27
+radius = 0.5
+mass = 1.0
+layout = "prism"
+jitter = 0.01
+material = "m"
+)";
+
+bool same_geom(const parode::omp::GeomFull& a, const parode::omp::GeomFull& b) {
+    return std::memcmp(a.aabb, b.aabb, sizeof a.aabb) == 0 && a.body == b.body && a.category == b.category &&
+           a.collide == b.collide && a.flags == b.flags && std::memcmp(&a.extent, &b.extent, sizeof a.extent) == 0 &&
+           a.prim.geom == b.prim.geom && a.prim.id == b.prim.id && a.prim.flags == b.prim.flags &&
+           std::memcmp(a.prim.p, b.prim.p, sizeof a.prim.p) == 0;
+}
+
+// What World tells the grid backend of its body geoms (World::sphere_bodies)
+// is what reading each geom from ODE gives, for owned bodies and ghosts of
+// three radii, also after a removal moves a body to another local index.
+TEST(SphereBodies, WorldsHintEqualsReadingTheGeoms) {
+    const Scene sc = load_scene_text(kMixedSpheres, "mixed.toml");
+    World w(sc, SpaceKind::Simple);
+    ASSERT_NE(w.sphere_bodies(), nullptr);
+    w.set_ghost(1, true);
+    w.set_ghost(5, true);
+    w.remove_body(0);  // the last body moves to local 0
+    ASSERT_TRUE(w.ghost(1) && w.ghost(5) && !w.ghost(0));
+    ASSERT_EQ(w.gid(0), 28u);
+    for (std::size_t i = 0; i < w.body_count(); ++i) {
+        const parode::omp::GeomFull hinted = parode::omp::hinted_sphere(w.geoms()[i], *w.sphere_bodies(), i);
+        EXPECT_TRUE(same_geom(hinted, parode::omp::read_geom(w.geoms()[i]))) << "body " << i << " (id " << w.gid(i) << ")";
+    }
+    const World buggy(test::repo_scene("jobs/scenes/buggy.toml"), SpaceKind::Simple);
+    EXPECT_EQ(buggy.sphere_bodies(), nullptr);  // a box among the bodies
 }
 
 // Tennis without joints: every contact counts.

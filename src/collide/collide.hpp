@@ -9,6 +9,7 @@
 #include <ode/ode.h>
 
 #include <functional>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,6 +20,23 @@
 #include "util/substages.hpp"
 
 namespace parode {
+
+// A hint beside CollideBackend::set_geoms, for a flat space whose first geoms
+// belong one to a body, in body order (World's): geom i < bodies->size() is
+// an enabled sphere without offset on body (*bodies)[i], with id (*ids)[i],
+// radius radius(id), and the bits category[g], collide[g] with g = (*ghost)[i].
+// A backend may then read such a geom's body position alone from ODE. The
+// vectors are the owner's and must outlive the hint; their contents may change
+// between calls (bodies added, removed, turned into ghosts).
+struct SphereBodies {
+    const std::vector<dBodyID>* bodies = nullptr;
+    const std::vector<std::uint32_t>* ids = nullptr;
+    const std::vector<std::uint8_t>* ghost = nullptr;
+    std::vector<double> body_radius;  // ids below its size
+    double catom_radius = 0;          // every other id
+    unsigned long category[2] = {0, 0}, collide[2] = {0, 0};
+    double radius(std::uint32_t id) const { return id < body_radius.size() ? body_radius[id] : catom_radius; }
+};
 
 // Which ODE space a backend wants World to build the scene into.
 enum class SpaceKind { Hash, SweepAndPrune, Simple };
@@ -37,6 +55,8 @@ public:
     // flat space), so a backend may read them without walking ODE's list.
     // The pointer must stay valid while the backend collides that space.
     virtual void set_geoms(dSpaceID /*space*/, const std::vector<dGeomID>* /*geoms*/) {}
+    // A further hint on those geoms (SphereBodies above), or null to forget it.
+    virtual void set_sphere_bodies(const SphereBodies* /*spheres*/) {}
     // Seconds spent in the backend's substages so far, or null.
     virtual const Substages* substages() const { return nullptr; }
     // A pool for the per-call tables, shared with stages that run at other

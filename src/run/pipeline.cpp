@@ -27,6 +27,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
+    backend_->set_sphere_bodies(world_->sphere_bodies());
     world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());

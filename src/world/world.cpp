@@ -92,6 +92,7 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     catom_mass_ = mass_for(scene.catoms.proto);
     build_statics();
     for (std::size_t i = 0; i < n; ++i) add_body(gids ? (*gids)[i] : static_cast<std::uint32_t>(i), false);
+    describe_spheres();
     build_joints();
     build_surfaces();
 }
@@ -281,6 +282,20 @@ bool World::bodies_are_spheres() const {
     const auto sphere = [](const BodySpec& b) { return b.shape.kind == ShapeKind::Sphere; };
     return std::all_of(scene_.bodies.begin(), scene_.bodies.end(), sphere) &&
            (scene_.catoms.count == 0 || sphere(scene_.catoms.proto));
+}
+
+// The radii and bits add_body and set_ghost give the body geoms.
+void World::describe_spheres() {
+    if (!bodies_are_spheres()) return;
+    for (const BodySpec& b : scene_.bodies) spheres_.body_radius.push_back(b.shape.radius);
+    spheres_.catom_radius = scene_.catoms.proto.shape.radius;
+    spheres_.category[0] = kDynamicCategory;
+    spheres_.collide[0] = ~0UL;
+    spheres_.category[1] = kGhostCategory;
+    spheres_.collide[1] = kDynamicCategory;
+    spheres_.bodies = &bodies_;
+    spheres_.ids = &gids_;
+    spheres_.ghost = &ghost_;
 }
 
 bool World::restore_state(std::size_t local, const BodyState& s, const double ode_q[4]) {

@@ -135,6 +135,9 @@ public:
     void sync_moves();
     // Every body's geom a sphere (from the scene: [[bodies]] and catoms).
     bool bodies_are_spheres() const;
+    // What a collision backend may know of the body geoms without reading
+    // them (collide.hpp), or null unless every body is a sphere.
+    const SphereBodies* sphere_bodies() const { return spheres_.bodies ? &spheres_ : nullptr; }
     // Sets a body from a saved state; true when ODE then holds exactly the
     // quaternion `ode_q` it held when the state was saved.
     bool restore_state(std::size_t local, const BodyState& s, const double ode_q[4]);
@@ -159,6 +162,7 @@ private:
     void build_statics();
     void build_joints();
     void build_surfaces();
+    void describe_spheres();
     dGeomID make_geom(const Shape& s);
 
     const Scene& scene_;
@@ -183,6 +187,7 @@ private:
     std::vector<dSurfaceParameters> surfaces_;  // materials x materials
     std::vector<dMass> body_mass_;  // per scene body (scene.bodies)
     dMass catom_mass_{};            // every catom's
+    SphereBodies spheres_;          // bodies null unless bodies_are_spheres()
 };
 
 }  // namespace parode
