@@ -24,18 +24,16 @@ struct PrimData {
 };
 
 // The fields ODE's colliders set alike on every contact they write.
-inline void contact_header(dContactGeom& c, dGeomID g1, dGeomID g2) {
+inline void contact_header(ContactGeom& c, dGeomID g1, dGeomID g2) {
     c.g1 = g1;
     c.g2 = g2;
     c.side1 = -1;
     c.side2 = -1;
-    c.pos[3] = 0;
-    c.normal[3] = 0;
 }
 
 // dCollide(s1, s2) for two spheres, s1 given first. Returns the contact count
 // (0 or 1) and fills `c` as ODE does.
-inline int sphere_sphere(const PrimData& s1, const PrimData& s2, dContactGeom& c) {
+inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactGeom& c) {
     const dReal r1 = s1.p[3];
     const dReal r2 = s2.p[3];
     // The squared distance exactly as dCalcPointsDistance3 sums it; its correctly
@@ -68,7 +66,7 @@ inline int sphere_sphere(const PrimData& s1, const PrimData& s2, dContactGeom& c
 
 // The sphere-plane contact as ODE's sphere/plane collider computes it with the
 // sphere first. Returns 0 or 1.
-inline int sphere_plane(const PrimData& s, const PrimData& pl, dContactGeom& c) {
+inline int sphere_plane(const PrimData& s, const PrimData& pl, ContactGeom& c) {
     const dReal radius = s.p[3];
     const dReal k = dCalcVectorDot3(s.p, pl.p);
     const dReal depth = pl.p[3] - k + radius;
@@ -81,7 +79,7 @@ inline int sphere_plane(const PrimData& s, const PrimData& pl, dContactGeom& c) 
 }
 
 // dCollide(plane, sphere): the sphere-first result seen from the plane's side.
-inline int plane_sphere(const PrimData& pl, const PrimData& s, dContactGeom& c) {
+inline int plane_sphere(const PrimData& pl, const PrimData& s, ContactGeom& c) {
     if (sphere_plane(s, pl, c) == 0) return 0;
     for (int j = 0; j < 3; ++j) c.normal[j] = -c.normal[j];
     c.g1 = pl.geom;

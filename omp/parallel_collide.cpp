@@ -35,7 +35,7 @@ void for_each_pair(const ContactBuffer& contacts, void* data, ContactPairCallbac
         pair.clear();
         const std::uint32_t lo = items[i].lo, hi = items[i].hi;
         for (; i < items.size() && items[i].lo == lo && items[i].hi == hi; ++i) {
-            pair.push_back(items[i].geom);
+            pair.push_back(items[i].geom.ode());
         }
         callback(data, pair[0].g1, pair[0].g2, pair.data(), static_cast<int>(pair.size()));
     }

@@ -444,7 +444,7 @@ void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
         dBodyID b1 = dGeomGetBody(r.geom.g1), b2 = dGeomGetBody(r.geom.g2);
         dContact c;
         c.surface = surface(material_of(r.lo), material_of(r.hi));
-        c.geom = r.geom;
+        c.geom = r.geom.ode();
         c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
         dJointID j = dJointCreateContact(world_, contacts_, &c);
         dJointAttach(j, b1, b2);
