@@ -50,15 +50,20 @@ struct CellBounds {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
     double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     double ext = 0;
-    // Geom i of the table.
-    void add(const GeomView& t, std::size_t i) {
-        dReal b[6];
-        t.aabb(i, b);
+    // A finite geom's AABB and its largest side (aabb_extent).
+    void add(const dReal b[6], dReal extent) {
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min(lo[k], b[2 * k]);
             hi[k] = std::max(hi[k], b[2 * k]);
         }
-        ext = std::max(ext, t.extent(i));
+        ext = std::max(ext, extent);
+    }
+    // Geom i of the table: its AABB read once (GeomView::extent's value, which
+    // is aabb_extent of that AABB for a finite geom, 0 otherwise).
+    void add(const GeomView& t, std::size_t i) {
+        dReal b[6];
+        t.aabb(i, b);
+        add(b, (t.flags(i) & kFinite) ? aabb_extent(b) : 0);
     }
     void add(const CellBounds& b) {
         for (int k = 0; k < 3; ++k) {

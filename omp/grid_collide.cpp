@@ -181,10 +181,16 @@ void CollideEngine::Impl::split_items() {
         SplitPart p;  // a local, stored once: neighbouring blocks' parts share cache lines
         for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
             const std::uint32_t f = info.flags(i);
-            const bool is_small = (f & kFinite) && info.extent(i) <= limit;
+            dReal box[6];
+            dReal extent = 0;  // GeomView::extent, from the AABB read once
+            if (f & kFinite) {
+                info.aabb(i, box);
+                extent = aabb_extent(box);
+            }
+            const bool is_small = (f & kFinite) && extent <= limit;
             const std::uint8_t m = !(f & kEnabled) ? 0 : is_small ? 1 : 2;
             mark[i] = m;
-            if (m == 1) p.bounds.add(info, i);
+            if (m == 1) p.bounds.add(box, extent);
             p.small += m == 1;
             p.big += m == 2;
         }
