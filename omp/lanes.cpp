@@ -28,16 +28,17 @@ bool run_less(const RunRef& a, const RunRef& b) {
     return a.hi < b.hi;
 }
 
+// Blocks of 2^shift consecutive lower ids: a shift per run, not a division
+// (two passes over every run take the block of each).
 struct BlockMap {
     std::uint64_t blocks;
-    std::uint64_t span;  // max lo + 1
-    std::size_t of(std::uint32_t lo) const {
-        return static_cast<std::size_t>(static_cast<std::uint64_t>(lo) * blocks / span);
-    }
+    unsigned shift;
+    std::size_t of(std::uint32_t lo) const { return static_cast<std::size_t>(lo >> shift); }
 };
 
 // The largest lower id is found lane by lane in tasks (a lane holds a
-// thread's share of the runs).
+// thread's share of the runs); blocks of a power-of-two width cover the ids
+// up to it, at most kMaxBlocks of them and about kRunsPerBlock runs each.
 BlockMap block_map(const std::vector<Lane>& lanes) {
     const std::size_t nl = lanes.size();
     std::vector<std::uint32_t> lane_max(nl, 0);
@@ -51,9 +52,11 @@ BlockMap block_map(const std::vector<Lane>& lanes) {
     }
     std::size_t total = 0;
     for (const Lane& l : lanes) total += l.runs.size();
-    const std::uint32_t max_lo = nl ? *std::max_element(lane_max.begin(), lane_max.end()) : 0;
-    const std::size_t blocks = std::clamp<std::size_t>(total / kRunsPerBlock, 1, kMaxBlocks);
-    return BlockMap{blocks, static_cast<std::uint64_t>(max_lo) + 1};
+    const std::uint64_t span = (nl ? *std::max_element(lane_max.begin(), lane_max.end()) : 0) + std::uint64_t{1};
+    const std::uint64_t want = std::clamp<std::size_t>(total / kRunsPerBlock, 1, kMaxBlocks);
+    unsigned shift = 0;
+    while (((span - 1) >> shift) + 1 > want) ++shift;  // ids per block: 2^shift
+    return BlockMap{((span - 1) >> shift) + 1, shift};
 }
 
 std::uint32_t run_contacts(std::uint32_t a, std::uint32_t b) { return a & kStored ? b : 1; }
