@@ -53,6 +53,7 @@ Variant make_variant(const Scene& scene, const std::string& spec) {
     v.backend->set_threads(threads);
     v.world = std::make_unique<World>(scene, v.backend->space_kind());
     v.backend->set_geoms(v.world->space(), &v.world->geoms());  // as the pipeline does
+    v.backend->set_sphere_bodies(v.world->sphere_bodies());
     return v;
 }
 

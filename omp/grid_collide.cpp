@@ -105,7 +105,7 @@ struct CollideEngine::Impl {
     }
     FastSource fast_source() const {
         FastSource f;
-        f.grid = grid.prims();
+        f.table = infos.view().info;
         f.big = big_prims.data();
         f.max_contacts = max_contacts;
         return f;

@@ -91,6 +91,7 @@ bool candidate_tags_pass(const PairInputs& in, const Candidate& c) {
 // rest: primitive pairs through dCollide, others deferred.
 void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane& l) {
     const PrimData* grid = in.grid->prims();
+    const GridTag* tag = in.grid->tags();
     std::size_t n = l.runs.size();
     l.runs.resize(n + cand.size());
     l.others.clear();
@@ -103,7 +104,8 @@ void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane&
         }
         const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) & candidate_tags_pass(in, c) &
                            fast_touch(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0);
-        l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), c.a, c.b);
+        const std::uint32_t tb = c.b & kBigList ? c.b : tag[c.b].info;
+        l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), tag[c.a].info, tb);
         n += touch;
     }
     l.runs.resize(n);

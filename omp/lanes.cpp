@@ -133,9 +133,11 @@ const RunRef* sort_block(RunRef* first, RunRef* last) {
     return sorted.data();
 }
 
-// Runs ahead whose geoms sort_and_write prefetches: the runs come in id order,
-// the geoms' prims lie in grid order, so each run's two prims are cache
-// misses (measured: a third of the merge's copy waited on them).
+// Runs ahead whose geoms sort_and_write prefetches: the runs come in id order
+// and name geom table entries, which in World's spaces are in id order too,
+// but a run's higher id lies a row or a layer of catoms ahead, and in other
+// spaces the table is in the space's order (measured, when runs named grid
+// positions: a third of the merge's copy waited on the two prims).
 constexpr std::size_t kAhead = 12;
 
 void prefetch_run(const RunRef& r, const FastSource& fast) {

@@ -18,6 +18,7 @@
 
 #include "collide/contacts.hpp"
 #include "fast_pairs.hpp"
+#include "geom_info.hpp"
 
 namespace parode::omp {
 
@@ -25,8 +26,10 @@ constexpr std::uint32_t kStored = 1u << 31;  // PairRun::a: contacts stored in t
 constexpr std::uint32_t kBigList = 1u << 31;  // PairRun::b: a geom of the big list
 
 // a & kStored: b contacts at buf[a & ~kStored] of the lane. Otherwise one
-// contact of the grid geoms at sorted positions a and b (b & kBigList: entry
-// b & ~kBigList of the big list), to be computed by the merge.
+// contact of the geoms at entries a and b of the geom table (b & kBigList:
+// entry b & ~kBigList of the big list), to be computed by the merge. Table
+// entries, not grid positions: the table follows the space's geom order,
+// which in World's spaces is id order, the order the merge writes in.
 struct PairRun {
     PairRun() {}  // left uninitialised: buffers are sized first, then filled
     PairRun(std::uint32_t lo_, std::uint32_t hi_, std::uint32_t a_, std::uint32_t b_) : lo(lo_), hi(hi_), a(a_), b(b_) {}
@@ -67,10 +70,10 @@ struct alignas(64) Lane {
 
 // Where the merge finds the geoms of unstored runs.
 struct FastSource {
-    const PrimData* grid = nullptr;
+    const GeomInfo* table = nullptr;
     const PrimData* big = nullptr;
     int max_contacts = 1;
-    const PrimData& prim(std::uint32_t b) const { return b & kBigList ? big[b & ~kBigList] : grid[b]; }
+    const PrimData& prim(std::uint32_t b) const { return b & kBigList ? big[b & ~kBigList] : table[b].prim; }
 };
 
 // Turns the lane's unstored runs into stored ones (before the grid they name
