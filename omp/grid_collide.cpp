@@ -156,7 +156,10 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
     return in;
 }
 
+// Unstored runs name entries of the table this overwrites: they are stored
+// first (a nested space or a pair of spaces reads its geoms here).
 void CollideEngine::Impl::read_space(dSpaceID space) {
+    for (Lane& l : lanes) store_fast_runs(l, fast_source());
     const bool flat = space == flat_space && flat_geoms &&
                       flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
     const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos, spheres) : read_space_pipelined(space, list, infos);
@@ -257,7 +260,6 @@ void CollideEngine::Impl::all_pairs() {
 // the internal pairs of every nested space (as collide_space_reference does).
 void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
     const double t0 = now_seconds();
-    for (Lane& l : lanes) store_fast_runs(l, fast_source());  // the grid is about to change
     read_space(space);
     if (use_reference) return;
     const double t1 = now_seconds();

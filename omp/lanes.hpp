@@ -76,8 +76,8 @@ struct FastSource {
     const PrimData& prim(std::uint32_t b) const { return b & kBigList ? big[b & ~kBigList] : table[b].prim; }
 };
 
-// Turns the lane's unstored runs into stored ones (before the grid they name
-// is rebuilt for a nested space).
+// Turns the lane's unstored runs into stored ones (before the geom table they
+// name is read again for another space).
 void store_fast_runs(Lane& lane, const FastSource& fast);
 
 struct RunRef {

@@ -152,6 +152,37 @@ TEST(GridCollide, ExactlyTouchingLatticeMatches) {
     dSpaceDestroy(boxes);
 }
 
+// Two sibling nested spaces of touching spheres that overlap each other: the
+// pair of spaces is collided after both spaces' own sphere pairs were found,
+// and reads the geoms of one of them again (the contacts found before must
+// not change when it does).
+TEST(GridCollide, SiblingSpacesOfSpheresMatch) {
+    dSpaceID top = dSimpleSpaceCreate(nullptr);
+    dSpaceID first = dSimpleSpaceCreate(top);
+    dSpaceID second = dSimpleSpaceCreate(top);
+    dSpaceSetCleanup(first, 0);
+    dSpaceSetCleanup(second, 0);
+    std::vector<dGeomID> made;
+    std::uint32_t id = 0;
+    auto row = [&](dSpaceID space, int n, double y) {
+        for (int i = 0; i < n; ++i) {
+            dGeomID g = dCreateSphere(space, 0.5);
+            dGeomSetPosition(g, 0.9 * i, y, 0);
+            set_geom_id(g, id++);
+            made.push_back(g);
+        }
+    };
+    row(second, 30, 0.0);
+    row(first, 12, 0.8);
+    set_geom_id(reinterpret_cast<dGeomID>(first), id++);
+    set_geom_id(reinterpret_cast<dGeomID>(second), id++);
+    expect_engine_matches(top, "sibling spaces of spheres");
+    for (dGeomID g : made) dGeomDestroy(g);
+    dSpaceDestroy(first);
+    dSpaceDestroy(second);
+    dSpaceDestroy(top);
+}
+
 TEST(GridCollide, SparseScatterMatches) {
     // Few geoms over a huge region: the grid takes its sparse (sorted-key) path.
     SceneOptions opt;
