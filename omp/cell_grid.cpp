@@ -190,27 +190,24 @@ void CellGrid::sort_sparse() {
 void CellGrid::fill_entries(const GeomTable& infos,
                             const std::vector<std::uint32_t>& items) {
     const std::size_t n = items.size();
-    static_assert(sizeof(GridTag) == 2 * sizeof(double), "a tag takes two doubles' room");
     size_ = n;
-    stride_ = (n + kPad + 1) / 2 * 2;
-    columns_.resize(8 * stride_);
+    boxes_.resize(n);
     prims_.resize(n);
     keys_.resize(n);
-    double* col = columns_.data();
-    const std::size_t stride = stride_;
-    for (int i = 0; i < 6; ++i) std::fill(col + i * stride + n, col + (i + 1) * stride, 0.0);  // the padding
-    GridTag* tag = reinterpret_cast<GridTag*>(col + 6 * stride);
+    GridBox* box = boxes_.data();
     const GeomView info = infos.view();
     const std::uint32_t* item = items.data();
-#pragma omp taskloop num_tasks(task_count(n, 2048)) firstprivate(col, tag, info, item, stride)
+#pragma omp taskloop num_tasks(task_count(n, 2048)) firstprivate(box, info, item)
     for (std::size_t s = 0; s < n; ++s) {
         if (s + kFillAhead < n) __builtin_prefetch(&info.info[item[order_[s + kFillAhead]]]);
         const std::uint32_t j = order_[s];
         const GeomInfo& g = info.info[item[j]];
         dReal b[6];
         info.aabb(item[j], b);
-        for (int i = 0; i < 6; ++i) col[i * stride + s] = b[i];
-        tag[s] = GridTag{g.body, item[j], g.prim.flags};
+        GridBox r;
+        box_from_aabb(b, r.key);
+        r.tag = GridTag{g.body, item[j], g.prim.flags};
+        box[s] = r;
         prims_[s] = g.prim;
         keys_[s] = raw_keys_[j];
     }

@@ -2,9 +2,9 @@
 // the minimum corner of its AABB, cells are at least as wide as the largest such
 // AABB, so two overlapping AABBs sit in the same or adjacent cells and a half
 // stencil (the cell itself plus 13 forward neighbours) finds every pair once.
-// Geoms are stored sorted by cell key, their AABBs as six columns (one per
-// bound, so that the pair search tests several geoms in one vector compare)
-// beside one 16-byte tag each (body, info index, flags): 64 bytes a geom. A dense
+// Geoms are stored sorted by cell key, each as one 64-byte GridBox (its AABB,
+// maxima negated, and a 16-byte tag: body, info index, flags), the record the
+// pair search reads (grid_boxes.hpp). A dense
 // cell-start table is used when the cells number at most a few per geom,
 // otherwise sorted occupied keys with binary search: memory stays linear in the
 // number of geoms either way.
@@ -20,15 +20,9 @@
 #include <vector>
 
 #include "geom_info.hpp"
+#include "grid_boxes.hpp"
 
 namespace parode::omp {
-
-// What the pair filter needs of a geom besides its AABB.
-struct GridTag {
-    dBodyID body;
-    std::uint32_t info;   // index into the GeomInfo table
-    std::uint32_t flags;  // GeomFlag bits
-};
 
 // One geom's AABB and tag in one record: the big list's geoms, and what
 // CellGrid::entry assembles for a grid geom tested against them.
@@ -78,7 +72,7 @@ class CellGrid {
 public:
     // Where the sorted entries and prims live (slots kSlotEntries, kSlotPrims).
     void set_scratch(ScratchPool* pool) {
-        columns_.set_pool(pool);
+        boxes_.set_pool(pool);
         prims_.set_pool(pool);
     }
     // Sort the geoms `items` (indices into `infos`, all finite) into cells.
@@ -88,17 +82,15 @@ public:
                const CellBounds& bounds);
 
     std::size_t size() const { return size_; }
-    // Bound i (ODE's AABB order: min x, max x, min y, ...) of every sorted
-    // geom; readable one element past the last geom (kPad).
-    const double* bound(int i) const { return columns_.data() + static_cast<std::size_t>(i) * stride_; }
-    const GridTag* tags() const { return reinterpret_cast<const GridTag*>(columns_.data() + 6 * stride_); }
+    // The sorted geoms' records.
+    const GridBox* boxes() const { return boxes_.data(); }
+    const GridTag& tag(std::size_t s) const { return boxes_[s].tag; }
     GridEntry entry(std::size_t s) const {
         GridEntry e;
-        for (int i = 0; i < 6; ++i) e.aabb[i] = bound(i)[s];
-        e.tag = tags()[s];
+        aabb_from_box(boxes_[s].key, e.aabb);
+        e.tag = boxes_[s].tag;
         return e;
     }
-    static constexpr std::size_t kPad = 1;
     const PrimData* prims() const { return prims_.data(); }
     std::uint64_t key(std::size_t i) const { return keys_[i]; }
 
@@ -146,8 +138,7 @@ private:
     std::vector<std::uint32_t> ustart_;    // sparse: first sorted position per key
     std::vector<std::uint64_t> keys_;      // per sorted position
     std::size_t size_ = 0;
-    std::size_t stride_ = 0;  // doubles per column: size_ + kPad rounded up to even (16-byte aligned columns)
-    ScratchArray<double> columns_{nullptr, kSlotEntries};  // six bounds, then the tags (two doubles' room each)
+    ScratchArray<GridBox> boxes_{nullptr, kSlotEntries};
     ScratchArray<PrimData> prims_{nullptr, kSlotPrims};
 };
 

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-#include "aabb_columns.hpp"
+#include "grid_boxes.hpp"
 #include "util/substages.hpp"
 
 namespace parode::omp {
@@ -46,16 +46,10 @@ Spans spans_of(const CellGrid& g, std::size_t a) {
     return s;
 }
 
-AabbColumns columns_of(const CellGrid& g) {
-    AabbColumns c;
-    for (int i = 0; i < 6; ++i) c.bound[i] = g.bound(i);
-    return c;
-}
-
 // Candidates of sorted geom a: appended at out[n], n advanced past the
 // passing ones. Grid candidates pass the AABB test only (the narrowphase
 // applies the rest of the filter to the few that do); big-list ones pass all.
-std::size_t collect(const PairInputs& in, const AabbColumns& c, std::size_t a, const Spans& sp, Candidate* out,
+std::size_t collect(const PairInputs& in, const GridBox* c, std::size_t a, const Spans& sp, Candidate* out,
                     std::size_t n) {
     for (int r = 0; r < 5; ++r) n = overlap_span(c, a, sp.begin[r], sp.end[r], out, n);
     if (in.nbig == 0) return n;
@@ -69,7 +63,7 @@ std::size_t collect(const PairInputs& in, const AabbColumns& c, std::size_t a, c
 }
 
 void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vector<Candidate>& cand) {
-    const AabbColumns c = columns_of(*in.grid);
+    const GridBox* c = in.grid->boxes();
     std::size_t n = 0;
     for (std::size_t a = a0; a < a1; ++a) {
         const Spans sp = spans_of(*in.grid, a);
@@ -83,15 +77,14 @@ void broadphase(const PairInputs& in, std::size_t a0, std::size_t a1, std::vecto
 // Whether grid candidate c passes the filter beyond its AABBs.
 bool candidate_tags_pass(const PairInputs& in, const Candidate& c) {
     if (c.b & kBigList) return true;  // tested whole by collect
-    const GridTag* t = in.grid->tags();
-    return tags_pass(in, t[c.a], t[c.b]);
+    return tags_pass(in, in.grid->tag(c.a), in.grid->tag(c.b));
 }
 
 // Sphere pairs: a run when they touch (written, kept only if so); then the
 // rest: primitive pairs through dCollide, others deferred.
 void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane& l) {
     const PrimData* grid = in.grid->prims();
-    const GridTag* tag = in.grid->tags();
+    const GridBox* box = in.grid->boxes();
     std::size_t n = l.runs.size();
     l.runs.resize(n + cand.size());
     l.others.clear();
@@ -104,8 +97,8 @@ void narrowphase(const PairInputs& in, const std::vector<Candidate>& cand, Lane&
         }
         const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) & candidate_tags_pass(in, c) &
                            fast_touch(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0);
-        const std::uint32_t tb = c.b & kBigList ? c.b : tag[c.b].info;
-        l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), tag[c.a].info, tb);
+        const std::uint32_t tb = c.b & kBigList ? c.b : box[c.b].tag.info;
+        l.runs[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), box[c.a].tag.info, tb);
         n += touch;
     }
     l.runs.resize(n);

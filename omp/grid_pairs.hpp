@@ -1,8 +1,8 @@
 // The pair search of the grid backend, one chunk of sorted geoms at a time:
 // broadphase, then narrowphase. The broadphase tests each geom's AABB against
 // the later geoms of its cell, the half stencil of forward cells and the big
-// list, reading the grid's AABB columns two geoms per SSE2 compare (ODE's
-// closed overlap test; a scalar loop where SSE2 is absent), writing every
+// list, reading the grid's one-line records (grid_boxes.hpp: ODE's closed
+// overlap test, an SSE2 compare per axis, scalar where SSE2 is absent), writing every
 // candidate and advancing past it only if it passes: no branch on an outcome
 // that is close to random in a pile. The narrowphase runs over the survivors
 // (about a quarter): the rest of ODE's collideAABBs filter (same body,

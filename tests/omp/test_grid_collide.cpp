@@ -9,12 +9,13 @@
 #include <gtest/gtest.h>
 #include <ode/ode.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <random>
 #include <vector>
 
-#include "aabb_columns.hpp"
+#include "grid_boxes.hpp"
 #include "cell_grid.hpp"
 #include "collide/collide.hpp"
 #include "collide_bench.hpp"
@@ -235,45 +236,41 @@ TEST(GridCollide, MaxContactsIsRespected) {
     }
 }
 
-// The broadphase's span test over AABB columns: every run [b0, b1) of every
+// The broadphase's span test over grid boxes: every run [b0, b1) of every
 // geom, the passing candidates exactly those of ODE's closed overlap test
-// (aabb_overlap), in order, for the scalar loop and the SSE2 one. Bounds are
-// drawn from a few values so that touching boxes (equal bounds) are common,
-// with some NaN among them.
-TEST(AabbColumns, SpanTestsPassExactlyTheOverlappingBoxes) {
+// (aabb_overlap on the AABBs the boxes were made from), in order, for the
+// scalar loop and the SSE2 one. Bounds are drawn from a few values so that
+// touching boxes (equal bounds) are common, with some NaN among them.
+TEST(GridBoxes, SpanTestsPassExactlyTheOverlappingBoxes) {
     constexpr std::size_t kGeoms = 64;
     std::mt19937 rng(7);
     const double values[] = {0.0, 1.0, 2.0, 3.0, std::nan("")};
     std::uniform_int_distribution<int> pick(0, 19);  // NaN one time in 20
-    constexpr std::size_t kStride = kGeoms + omp::CellGrid::kPad;
-    std::vector<double> col(6 * kStride);
+    std::vector<std::array<double, 6>> aabbs(kGeoms);
+    std::vector<omp::GridBox> boxes(kGeoms);
     for (std::size_t g = 0; g < kGeoms; ++g) {
         for (std::size_t k = 0; k < 3; ++k) {
             const int lo = pick(rng) % 4, span = pick(rng);
-            col[2 * k * kStride + g] = span == 19 ? values[4] : values[lo];
-            col[(2 * k + 1) * kStride + g] = values[std::min(3, lo + span % 3)];
+            aabbs[g][2 * k] = span == 19 ? values[4] : values[lo];
+            aabbs[g][2 * k + 1] = values[std::min(3, lo + span % 3)];
         }
+        omp::box_from_aabb(aabbs[g].data(), boxes[g].key);
     }
-    omp::AabbColumns c;
-    for (std::size_t i = 0; i < 6; ++i) c.bound[i] = col.data() + i * kStride;
     std::size_t passing = 0;
     std::vector<omp::Candidate> got(kGeoms + 1);
     for (std::size_t a = 0; a < kGeoms; ++a) {
         for (std::uint32_t b0 = 0; b0 <= kGeoms; b0 += 3) {
             for (std::uint32_t b1 = b0; b1 <= kGeoms; b1 += 5) {
                 std::vector<std::uint32_t> want;
-                double box[6], other[6];
-                for (int i = 0; i < 6; ++i) box[i] = c.bound[i][a];
                 for (std::uint32_t b = b0; b < b1; ++b) {
-                    for (int i = 0; i < 6; ++i) other[i] = c.bound[i][b];
-                    if (omp::aabb_overlap(box, other)) want.push_back(b);
+                    if (omp::aabb_overlap(aabbs[a].data(), aabbs[b].data())) want.push_back(b);
                 }
                 passing += want.size();
-                const std::size_t n = omp::overlap_span_scalar(c, a, b0, b1, got.data(), 0);
+                const std::size_t n = omp::overlap_span_scalar(boxes.data(), a, b0, b1, got.data(), 0);
                 ASSERT_EQ(n, want.size()) << "scalar, a " << a << " [" << b0 << ", " << b1 << ")";
                 for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(got[j].b, want[j]);
 #if defined(__SSE2__)
-                const std::size_t m = omp::overlap_span_sse2(c, a, b0, b1, got.data(), 0);
+                const std::size_t m = omp::overlap_span_sse2(boxes.data(), a, b0, b1, got.data(), 0);
                 ASSERT_EQ(m, want.size()) << "SSE2, a " << a << " [" << b0 << ", " << b1 << ")";
                 for (std::size_t j = 0; j < m; ++j) {
                     ASSERT_EQ(got[j].a, a);
