@@ -149,6 +149,7 @@ double MpiDomain::load_imbalance(const World& world, const std::vector<WarmImpul
 
 void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step) {
     world_ = &world;
+    if (steps_ == 0) setup_stats_ = comm_.stats();  // steps' figures count from here
     ++steps_;
     const int every = std::max(1, scene_.parallel.rebalance_every);
     if (step > 0 && step % every == 0) {
@@ -410,13 +411,18 @@ void MpiDomain::check_invariants(const World& world, long step) {
 }
 
 nlohmann::json MpiDomain::report() const {
-    std::int64_t c[3] = {0, static_cast<std::int64_t>(comm_.stats().bytes), migrations_};
+    // Communication of the steps, then of setup (partition, distribution,
+    // first exchange) apart: setup waits on rank 0 and would swamp a short run.
+    const CommStats setup = steps_ ? setup_stats_ : comm_.stats();
+    const CommStats& all = comm_.stats();
+    std::int64_t c[4] = {0, static_cast<std::int64_t>(all.bytes - setup.bytes), migrations_,
+                         static_cast<std::int64_t>(setup.bytes)};
     if (world_) {
         for (std::size_t i = 0; i < world_->body_count(); ++i) c[0] += world_->ghost(i) ? 1 : 0;
     }
-    std::uint64_t messages = comm_.stats().messages;
-    const double seconds = comm_.stats().seconds;
-    comm_.sum(c, 3);
+    std::uint64_t messages = all.messages - setup.messages;
+    const double seconds = all.seconds - setup.seconds;
+    comm_.sum(c, 4);
     comm_.sum_wrapping(&messages, 1);
     const double n = world_ ? static_cast<double>(world_->global_body_count()) : 1.0;
     return {{"ranks", ranks()},
@@ -430,6 +436,8 @@ nlohmann::json MpiDomain::report() const {
             {"comm_seconds", {{"min", min(seconds)}, {"max", Domain::max(seconds)}}},
             {"comm_bytes", c[1]},
             {"messages_per_step", steps_ ? static_cast<double>(messages) / static_cast<double>(steps_) / ranks() : 0.0},
+            {"setup_comm_seconds", {{"min", min(setup.seconds)}, {"max", Domain::max(setup.seconds)}}},
+            {"setup_comm_bytes", c[3]},
             {"cell_edge", cells_.edge()},
             {"cells", map_.mapped()}};
 }

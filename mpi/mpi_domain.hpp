@@ -98,6 +98,7 @@ private:
     std::uint64_t id_hash_ = 0;                    // sum of mixed gids of every body
     long conflicts_ = 0;                           // ghosts received for bodies owned here
     long migrations_ = 0, repartitions_ = 0, steps_ = 0;
+    CommStats setup_stats_;                        // what setup cost: the stats when the first step began
     std::int64_t edge_cut_ = 0;
     double partition_imbalance_ = 1.0, imbalance_ = 1.0;
 };

@@ -35,6 +35,25 @@ TEST_F(Mpi, CheckpointOfTwoRanksRestartsOnOneTwoThree) {
     }
 }
 
+// The report's communication figures count the steps only; setup's
+// (partition, distribution, first exchange) are reported apart and do not
+// depend on how many steps follow.
+TEST_F(Mpi, StepCommunicationExcludesSetup) {
+    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
+                               " --set catoms.count=2000";
+    for (const char* steps : {"0", "4"}) {
+        const Result r = run(2, common + " --steps " + steps + " --report " + path(std::string(steps) + ".json"));
+        ASSERT_EQ(r.rc, 0) << r.err;
+    }
+    const nlohmann::json none = report("0.json")["parallel"], four = report("4.json")["parallel"];
+    EXPECT_EQ(none["comm_bytes"].get<long>(), 0);
+    EXPECT_EQ(none["messages_per_step"].get<double>(), 0.0);
+    EXPECT_GT(none["setup_comm_bytes"].get<long>(), 2000 * 8) << "setup sends every body's state";
+    EXPECT_EQ(four["setup_comm_bytes"], none["setup_comm_bytes"]);
+    EXPECT_GT(four["comm_bytes"].get<long>(), 0);
+    EXPECT_LE(four["comm_seconds"]["max"].get<double>(), report("4.json")["steps_wall_s"].get<double>());
+}
+
 // Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.
 TEST_F(Mpi, OutputFilesEqualOneProcessFiles) {
     const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 60 --collide grid"

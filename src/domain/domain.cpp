@@ -18,7 +18,8 @@ std::vector<std::uint32_t> Domain::initial_bodies(const Scene& scene) const {
 
 nlohmann::json Domain::report() const {
     return {{"ranks", 1}, {"imbalance", 1.0}, {"edge_cut", 0}, {"ghost_fraction", 0.0}, {"migrations", 0},
-            {"repartitions", 0}, {"comm_seconds", 0.0}, {"comm_bytes", 0}, {"messages_per_step", 0.0}};
+            {"repartitions", 0}, {"comm_seconds", 0.0}, {"comm_bytes", 0}, {"messages_per_step", 0.0},
+            {"setup_comm_seconds", 0.0}, {"setup_comm_bytes", 0}};
 }
 
 void Domain::sum(std::int64_t*, int) const {}
