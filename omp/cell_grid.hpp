@@ -4,10 +4,9 @@
 // stencil (the cell itself plus 13 forward neighbours) finds every pair once.
 // Geoms are stored sorted by cell key, each as one 64-byte GridBox (its AABB,
 // maxima negated, and a 16-byte tag: body, info index, flags), the record the
-// pair search reads (grid_boxes.hpp). A dense
-// cell-start table is used when the cells number at most a few per geom,
-// otherwise sorted occupied keys with binary search: memory stays linear in the
-// number of geoms either way.
+// pair search reads (grid_boxes.hpp). A dense cell-start table is used when the
+// cells number at most a few per geom, otherwise sorted occupied keys with
+// binary search: memory stays linear in the number of geoms either way.
 // Trade-off: one cell size for all geoms, so geoms much larger than typical are
 // kept out (the caller's "big" list); a counting sort per call instead of any
 // incremental structure, which keeps every call independent of the last.
