@@ -37,13 +37,28 @@ Vec3 position(const World& w, std::size_t i) {
     return {x[0], x[1], x[2]};
 }
 
-// Removes the warm-start impulses of `gid` from `warm` (sorted by lo) into `out`.
-void take_impulses(std::vector<WarmImpulse>& warm, std::uint32_t gid, std::vector<WarmImpulse>& out) {
-    auto lo = std::lower_bound(warm.begin(), warm.end(), gid, [](const WarmImpulse& m, std::uint32_t g) { return m.lo < g; });
-    auto hi = lo;
-    while (hi != warm.end() && hi->lo == gid) ++hi;
-    out.assign(lo, hi);
-    warm.erase(lo, hi);
+// Orders impulses and lower ids (equal_range over a vector sorted by lo).
+struct ByLo {
+    bool operator()(const WarmImpulse& m, std::uint32_t g) const { return m.lo < g; }
+    bool operator()(std::uint32_t g, const WarmImpulse& m) const { return g < m.lo; }
+};
+
+// The run of `warm` (sorted by lower id) whose lower body is `gid`.
+std::pair<std::size_t, std::size_t> impulses_of(const std::vector<WarmImpulse>& warm, std::uint32_t gid) {
+    const auto range = std::equal_range(warm.begin(), warm.end(), gid, ByLo{});
+    return {static_cast<std::size_t>(range.first - warm.begin()), static_cast<std::size_t>(range.second - warm.begin())};
+}
+
+// Drops the impulses flagged in `gone`, keeping the order of the rest: one
+// pass, however many bodies left (erasing each body's run as it left moved
+// the whole tail each time: minutes when a restart or a repartition moves
+// half a million bodies).
+void drop_impulses(std::vector<WarmImpulse>& warm, const std::vector<unsigned char>& gone) {
+    std::size_t keep = 0;
+    for (std::size_t k = 0; k < warm.size(); ++k) {
+        if (!gone[k]) warm[keep++] = warm[k];
+    }
+    warm.resize(keep);
 }
 
 void sort_impulses(std::vector<WarmImpulse>& warm) {
@@ -167,7 +182,7 @@ void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step)
 // says whether this process still holds them.
 void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
     std::map<int, Bytes> out;
-    std::vector<WarmImpulse> mine;
+    std::vector<unsigned char> gone(warm ? warm->size() : 0, 0);  // impulses leaving with their body
     long sent = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
@@ -177,13 +192,16 @@ void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
         put(b, world.gid(i));
         put(b, world.state(i));
         put(b, world.origin(i));
-        mine.clear();
-        if (warm) take_impulses(*warm, world.gid(i), mine);
-        put(b, static_cast<std::uint32_t>(mine.size()));
-        for (const WarmImpulse& m : mine) put(b, m);
+        const auto [first, last] = warm ? impulses_of(*warm, world.gid(i)) : std::pair<std::size_t, std::size_t>{0, 0};
+        put(b, static_cast<std::uint32_t>(last - first));
+        for (std::size_t k = first; k < last; ++k) {
+            put(b, (*warm)[k]);
+            gone[k] = 1;
+        }
         world.set_ghost(i, true);
         ++sent;
     }
+    if (warm && sent) drop_impulses(*warm, gone);
     receive_bodies(world, warm, comm_.sparse_exchange(out, kTagMigrate));
     migrations_ += sent;
 }
