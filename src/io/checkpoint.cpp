@@ -134,15 +134,23 @@ Checkpoint read_checkpoint(const std::string& path) {
 }
 
 std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
+    constexpr std::size_t kRunRecords = 4096;  // records read at once, at most
     std::ifstream in(c.path, std::ios::binary);
     std::vector<CheckpointRecord> out;
     out.reserve(gids.size());
-    char buf[kRecordBytes];
-    for (std::uint32_t g : gids) {
-        in.seekg(static_cast<std::streamoff>(c.head_bytes + g * kRecordBytes));
-        in.read(buf, kRecordBytes);
-        if (!in) throw std::invalid_argument(c.path + ": cannot read the record of body " + std::to_string(g));
-        out.push_back(unpack_record(buf));
+    std::vector<char> buf;
+    for (std::size_t i = 0; i < gids.size();) {
+        std::size_t j = i + 1;  // [i, j): consecutive ids, one read
+        while (j < gids.size() && j - i < kRunRecords && gids[j] == gids[j - 1] + 1) ++j;
+        buf.resize((j - i) * kRecordBytes);
+        in.seekg(static_cast<std::streamoff>(c.head_bytes + std::uint64_t{gids[i]} * kRecordBytes));
+        in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+        if (!in) {
+            throw std::invalid_argument(c.path + ": cannot read the records of bodies " + std::to_string(gids[i]) + " to " +
+                                        std::to_string(gids[j - 1]));
+        }
+        for (std::size_t k = 0; k < j - i; ++k) out.push_back(unpack_record(buf.data() + k * kRecordBytes));
+        i = j;
     }
     return out;
 }

@@ -53,7 +53,7 @@ void write_checkpoint(const std::string& path, const Domain& domain, const World
 // The header of a checkpoint. Throws std::runtime_error naming the file and
 // what is wrong with it.
 Checkpoint read_checkpoint(const std::string& path);
-// The records of `gids` (ascending).
+// The records of `gids` (ascending), runs of consecutive ids read at once.
 std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
 // The impulses whose lower body is one of `gids` (ascending), sorted.
 std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
