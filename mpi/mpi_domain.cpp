@@ -121,13 +121,15 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
     const auto parts = comm_.gather(packed, 0);
     Bytes result;
     if (comm_.rank() == 0) {
+        std::vector<std::vector<CellLoad>> held(parts.size());
         std::vector<CellLoad> all;
-        for (const Bytes& b : parts) {
-            const std::size_t at = all.size();
-            all.resize(at + b.size() / sizeof(CellLoad));
-            if (!b.empty()) std::memcpy(all.data() + at, b.data(), b.size());
+        for (std::size_t r = 0; r < parts.size(); ++r) {
+            held[r].resize(parts[r].size() / sizeof(CellLoad));
+            if (!held[r].empty()) std::memcpy(held[r].data(), parts[r].data(), parts[r].size());
+            all.insert(all.end(), held[r].begin(), held[r].end());
         }
-        const Partition p = partition_cells(merge_cells(std::move(all)), ranks());
+        Partition p = partition_cells(merge_cells(std::move(all)), ranks());
+        keep_owners(p, held, ranks());
         put(result, static_cast<std::uint64_t>(p.keys.size()));
         put(result, p.edge_cut);
         put(result, p.imbalance);

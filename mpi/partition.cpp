@@ -102,4 +102,56 @@ Partition partition_cells(const std::vector<CellLoad>& cells, int parts) {
     return p;
 }
 
+namespace {
+
+struct Overlap {
+    std::int64_t work;
+    int part, process;
+};
+
+// Work of each (new part, current process) pair that shares cells, summed.
+std::vector<Overlap> overlaps(const Partition& p, const std::vector<std::vector<CellLoad>>& held) {
+    std::vector<Overlap> o;
+    for (std::size_t r = 0; r < held.size(); ++r) {
+        for (const CellLoad& c : held[r]) {
+            const auto it = std::lower_bound(p.keys.begin(), p.keys.end(), c.key);
+            if (it == p.keys.end() || *it != c.key) continue;
+            o.push_back({c.work, p.owner[static_cast<std::size_t>(it - p.keys.begin())], static_cast<int>(r)});
+        }
+    }
+    std::sort(o.begin(), o.end(), [](const Overlap& a, const Overlap& b) {
+        return a.part != b.part ? a.part < b.part : a.process < b.process;
+    });
+    std::vector<Overlap> sum;
+    for (const Overlap& x : o) {
+        if (!sum.empty() && sum.back().part == x.part && sum.back().process == x.process) sum.back().work += x.work;
+        else sum.push_back(x);
+    }
+    return sum;
+}
+
+}  // namespace
+
+void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, int parts) {
+    std::vector<Overlap> o = overlaps(p, held);
+    std::stable_sort(o.begin(), o.end(), [](const Overlap& a, const Overlap& b) { return a.work > b.work; });
+    const auto n = static_cast<std::size_t>(parts);
+    std::vector<int> to(n, -1);
+    std::vector<char> taken(n, 0);
+    for (const Overlap& x : o) {
+        const auto part = static_cast<std::size_t>(x.part), process = static_cast<std::size_t>(x.process);
+        if (process >= n || to[part] >= 0 || taken[process]) continue;
+        to[part] = x.process;
+        taken[process] = 1;
+    }
+    std::size_t free = 0;
+    for (std::size_t part = 0; part < n; ++part) {
+        if (to[part] >= 0) continue;
+        while (taken[free]) ++free;
+        to[part] = static_cast<int>(free);
+        taken[free] = 1;
+    }
+    for (int& owner : p.owner) owner = to[static_cast<std::size_t>(owner)];
+}
+
 }  // namespace parode::mpi

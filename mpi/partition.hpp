@@ -33,5 +33,12 @@ std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells);
 // `cells` merged (sorted, unique keys). Deterministic: the same cells give
 // the same partition.
 Partition partition_cells(const std::vector<CellLoad>& cells, int parts);
+// Renumbers the parts of `p` (same cells, same cut) so that as much work as
+// possible stays on the process that holds it: held[r] are the cells process
+// r holds now. METIS numbers its parts afresh each call, so without this a
+// repartition moves bodies whose part did not change, only its number.
+// Greedy by overlap (largest first; ties by part, then process), which is
+// deterministic and near the optimum when parts drift a little.
+void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, int parts);
 
 }  // namespace parode::mpi

@@ -1,7 +1,8 @@
 // The partition of cells among processes (mpi/partition, mpi/cell_map), no
 // MPI needed: METIS balances a lattice of cells within 5 % and cuts fewer
 // boundary bodies than slicing by key; duplicate cells from several
-// processes merge; every cell, mapped or not, has exactly one owner that all
+// processes merge; a repartition keeps parts on the processes holding them;
+// every cell, mapped or not, has exactly one owner that all
 // processes compute alike; a cell's holders are the owners around it.
 // Trade-off: small synthetic lattices (a few thousand cells) keep METIS fast;
 // the scenes' own partitions are tested through the distributed runs.
@@ -57,6 +58,47 @@ TEST_P(Parts, BalancedEveryPartUsedAndBetterThanSlices) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Counts, Parts, ::testing::Values(2, 3, 4, 8));
+
+// The cells each process holds under `owners` (per cell of `cells`).
+std::vector<std::vector<CellLoad>> held_by(const std::vector<CellLoad>& cells, const std::vector<int>& owners, int parts) {
+    std::vector<std::vector<CellLoad>> held(static_cast<std::size_t>(parts));
+    for (std::size_t i = 0; i < cells.size(); ++i) held[static_cast<std::size_t>(owners[i])].push_back(cells[i]);
+    return held;
+}
+
+// A repartition that finds the same parts under other numbers moves nothing:
+// keep_owners gives each part back the process that holds it.
+TEST_P(Parts, RenumberedPartsStayWhereTheyAre) {
+    const int parts = GetParam();
+    const std::vector<CellLoad> cells = lattice(16, 16, 4);
+    const Partition before = partition_cells(cells, parts);
+    Partition after = before;
+    for (int& o : after.owner) o = (o + 1) % parts;  // the same parts, numbered afresh
+    ASSERT_NE(after.owner, before.owner);
+    keep_owners(after, held_by(cells, before.owner, parts), parts);
+    EXPECT_EQ(after.owner, before.owner);
+    EXPECT_EQ(after.edge_cut, before.edge_cut);
+}
+
+// Parts that drifted: each goes to the process holding most of its work, and
+// the renumbering is a permutation (every process gets one part).
+TEST_P(Parts, DriftedPartsGoWhereMostOfTheirWorkIs) {
+    const int parts = GetParam();
+    const std::vector<CellLoad> cells = lattice(16, 16, 4);
+    Partition p = partition_cells(cells, parts);
+    std::vector<int> now(p.owner.size());
+    for (std::size_t i = 0; i < now.size(); ++i) now[i] = (p.owner[i] + (i % 10 == 0 ? 2 : 1)) % parts;  // a tenth elsewhere
+    const std::vector<int> metis = p.owner;
+    keep_owners(p, held_by(cells, now, parts), parts);
+    std::set<int> used(p.owner.begin(), p.owner.end());
+    EXPECT_EQ(used.size(), static_cast<std::size_t>(parts));
+    std::size_t stay = 0;
+    for (std::size_t i = 0; i < now.size(); ++i) {
+        stay += p.owner[i] == now[i];
+        EXPECT_EQ(p.owner[i], (metis[i] + 1) % parts) << "cell " << i;
+    }
+    EXPECT_GE(stay, now.size() * 8 / 10);
+}
 
 TEST(Partition, DuplicateCellsFromSeveralProcessesMerge) {
     const std::vector<CellLoad> merged = merge_cells({{key_of(1, 0, 0), 3, 2}, {key_of(0, 0, 0), 1, 1}, {key_of(1, 0, 0), 5, 4}});
