@@ -4,7 +4,8 @@
 // dRand state), dWorldStep with joints and a driver, and magnets; a
 // checkpoint of another scene, or a damaged one, is refused with the reason;
 // SIGTERM finishes the step, writes a checkpoint and a report marked
-// interrupted, exits 7, and the checkpoint continues the run exactly.
+// interrupted, exits 7, and the checkpoint continues the run exactly; the
+// impulse index sends a reader to the blocks that may hold its bodies'.
 // Trade-off: real processes and files, small scenes (500 catoms, 200 steps).
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -16,7 +17,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
+#include "io/checkpoint.hpp"
 #include "scratch_dir.hpp"
 
 namespace {
@@ -122,3 +126,30 @@ TEST_F(Restart, CheckpointEveryKStepsHoldsTheLatestStep) {
 }
 
 }  // namespace
+
+// The impulse index of a checkpoint: a reader reads only the blocks whose
+// lower-id range holds one of its bodies, neighbouring blocks joined, across
+// the writers' pieces (an empty piece included).
+TEST(ImpulseIndex, ReadsOnlyTheBlocksThatMayHoldTheBodies) {
+    const nlohmann::json index = {
+        {"block", 4},
+        {"pieces",
+         {{{"count", 10}, {"lo", {0, 3, 4, 9, 20, 21}}},  // impulses [0, 4), [4, 8), [8, 10)
+          {{"count", 0}, {"lo", nlohmann::json::array()}},
+          {{"count", 6}, {"lo", {10, 19, 22, 30}}}}}};  // impulses [10, 14), [14, 16)
+    using Ranges = std::vector<std::pair<std::uint64_t, std::uint64_t>>;
+    const auto ranges = [&index](const std::vector<std::uint32_t>& gids) {
+        Ranges r;
+        for (const parode::ImpulseRange& x : parode::impulse_ranges(index, gids)) r.emplace_back(x.first, x.count);
+        return r;
+    };
+    EXPECT_EQ(ranges({}), Ranges{});
+    EXPECT_EQ(ranges({31, 40}), Ranges{});
+    EXPECT_EQ(ranges({5}), (Ranges{{4, 4}}));
+    EXPECT_EQ(ranges({3, 4}), (Ranges{{0, 8}}));
+    EXPECT_EQ(ranges({21, 22}), (Ranges{{8, 2}, {14, 2}}));
+    EXPECT_EQ(ranges({10, 20}), (Ranges{{8, 6}}));
+    std::vector<std::uint32_t> all(41);
+    for (std::uint32_t g = 0; g < all.size(); ++g) all[g] = g;
+    EXPECT_EQ(ranges(all), (Ranges{{0, 16}}));
+}

@@ -71,6 +71,41 @@ std::vector<char> header(const nlohmann::json& meta, std::uint64_t& head_bytes) 
     return std::vector<char>(h.begin(), h.end());
 }
 
+// Impulses per block of the index: blocks of at least 256, and about 65,536
+// blocks in all, so the index stays small in the header at any size.
+std::uint64_t index_block(std::int64_t impulses) {
+    return std::max<std::uint64_t>(256, (static_cast<std::uint64_t>(impulses) + 65535) / 65536);
+}
+
+// This process's piece of the index: its impulse count, then the smallest
+// and largest lower id of each block of `block` impulses.
+std::vector<char> piece_index(const std::vector<WarmImpulse>* warm, std::uint64_t block) {
+    std::vector<std::uint64_t> v{warm ? warm->size() : 0};
+    for (std::size_t b = 0; warm && b < warm->size(); b += block) {
+        std::uint32_t lo = UINT32_MAX, hi = 0;
+        for (std::size_t k = b; k < std::min<std::size_t>(warm->size(), b + block); ++k) {
+            lo = std::min(lo, (*warm)[k].lo);
+            hi = std::max(hi, (*warm)[k].lo);
+        }
+        v.push_back(lo);
+        v.push_back(hi);
+    }
+    std::vector<char> out(v.size() * sizeof(std::uint64_t));
+    std::memcpy(out.data(), v.data(), out.size());
+    return out;
+}
+
+// Every process's piece, in file order, as the header's "impulse_index".
+nlohmann::json impulse_index(const Domain& domain, const std::vector<WarmImpulse>* warm, std::uint64_t block) {
+    nlohmann::json pieces = nlohmann::json::array();
+    for (const std::vector<char>& bytes : domain.all_gather(piece_index(warm, block))) {
+        std::vector<std::uint64_t> v(bytes.size() / sizeof(std::uint64_t));
+        std::memcpy(v.data(), bytes.data(), v.size() * sizeof(std::uint64_t));
+        pieces.push_back({{"count", v.at(0)}, {"lo", std::vector<std::uint64_t>(v.begin() + 1, v.end())}});
+    }
+    return {{"block", block}, {"pieces", pieces}};
+}
+
 }  // namespace
 
 void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
@@ -95,6 +130,7 @@ void write_checkpoint(const std::string& path, const Domain& domain, const World
     meta["impulses"] = impulses;
     meta["record_bytes"] = kRecordBytes;
     meta["impulse_bytes"] = kImpulseBytes;
+    meta["impulse_index"] = impulse_index(domain, warm, index_block(impulses));
     meta["written_by_ranks"] = domain.ranks();
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);
@@ -155,12 +191,33 @@ std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vecto
     return out;
 }
 
-std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
-    std::ifstream in(c.path, std::ios::binary);
-    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes));
-    std::vector<WarmImpulse> out;
+std::vector<ImpulseRange> impulse_ranges(const nlohmann::json& index, const std::vector<std::uint32_t>& gids) {
+    std::vector<ImpulseRange> out;
+    const std::uint64_t block = index.at("block").get<std::uint64_t>();
+    std::uint64_t first = 0;  // the piece's first impulse
+    for (const nlohmann::json& piece : index.at("pieces")) {
+        const std::uint64_t count = piece.at("count").get<std::uint64_t>();
+        const std::vector<std::uint64_t> lo = piece.at("lo").get<std::vector<std::uint64_t>>();
+        for (std::size_t b = 0; 2 * b + 1 < lo.size(); ++b) {
+            const auto g = std::lower_bound(gids.begin(), gids.end(), lo[2 * b]);
+            if (g == gids.end() || *g > lo[2 * b + 1]) continue;  // none of gids in the block's range
+            const std::uint64_t at = first + b * block, n = std::min(block, count - b * block);
+            if (!out.empty() && out.back().first + out.back().count == at) out.back().count += n;
+            else out.push_back({at, n});
+        }
+        first += count;
+    }
+    return out;
+}
+
+namespace {
+
+// Impulses [first, first + count) of the file whose lower body is in gids, appended to out.
+void scan_impulses(std::ifstream& in, const Checkpoint& c, const ImpulseRange& r, const std::vector<std::uint32_t>& gids,
+                   std::vector<WarmImpulse>& out) {
+    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes + r.first * kImpulseBytes));
     std::vector<char> chunk(kImpulseBytes * 4096);
-    for (std::uint64_t left = c.impulses; left > 0;) {
+    for (std::uint64_t left = r.count; left > 0;) {
         const std::uint64_t n = std::min<std::uint64_t>(left, 4096);
         in.read(chunk.data(), static_cast<std::streamsize>(n * kImpulseBytes));
         if (!in) throw std::invalid_argument(c.path + ": cannot read the warm-start impulses");
@@ -170,6 +227,17 @@ std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<st
         }
         left -= n;
     }
+}
+
+}  // namespace
+
+std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
+    std::ifstream in(c.path, std::ios::binary);
+    std::vector<WarmImpulse> out;
+    const auto index = c.meta.find("impulse_index");
+    const std::vector<ImpulseRange> ranges =
+        index != c.meta.end() ? impulse_ranges(*index, gids) : std::vector<ImpulseRange>{{0, c.impulses}};
+    for (const ImpulseRange& r : ranges) scan_impulses(in, c, r, gids, out);
     std::sort(out.begin(), out.end(), [](const WarmImpulse& a, const WarmImpulse& b) {
         return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
     });

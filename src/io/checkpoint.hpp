@@ -8,13 +8,18 @@
 //     quaternion last handed to ODE and the one ODE holds, linear and angular
 //     velocity, initial position, awake (21 doubles);
 //   the warm-start impulses of the contact solver, 36 bytes each (lo, hi,
-//     index, three impulses), grouped by the process that wrote them.
+//     index, three impulses), grouped by the process that wrote them; the
+//     header's "impulse_index" gives, per group, the smallest and largest
+//     lower id of each block of impulses.
 // Every process writes its owned bodies' records in place (MPI-IO, by gid)
 // and its impulses after them; a restarting process reads the records of the
-// ids it builds and the impulses of those bodies, with plain file reads.
+// ids it builds and the blocks of impulses that may hold those bodies', with
+// plain file reads.
 // Trade-off: fixed-size records by gid make the body part identical for any
-// writer and let any reader pick its ids without an index; every reader
-// scans all impulses (about 60 bytes a catom) to find its own.
+// writer and let any reader pick its ids without an index; impulses are
+// grouped by writer, not sorted globally (no collective sort when writing),
+// so a reader uses the index to skip the blocks it needs none of, and reads
+// whole blocks of others' impulses where lower-id ranges overlap.
 #pragma once
 #include <nlohmann/json.hpp>
 
@@ -55,7 +60,17 @@ void write_checkpoint(const std::string& path, const Domain& domain, const World
 Checkpoint read_checkpoint(const std::string& path);
 // The records of `gids` (ascending), runs of consecutive ids read at once.
 std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
-// The impulses whose lower body is one of `gids` (ascending), sorted.
+// The impulses whose lower body is one of `gids` (ascending), sorted: the
+// blocks the header's index says may hold them (all impulses if it has none).
 std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
+
+// Impulses [first, first + count) of the file.
+struct ImpulseRange {
+    std::uint64_t first, count;
+};
+// The blocks of the header's "impulse_index" (per writer's piece: its count,
+// then the smallest and largest lower id of each block) whose lower-id range
+// holds one of `gids` (ascending), neighbouring blocks joined.
+std::vector<ImpulseRange> impulse_ranges(const nlohmann::json& index, const std::vector<std::uint32_t>& gids);
 
 }  // namespace parode
