@@ -218,6 +218,22 @@ void io_check(int rc, const std::string& path, const char* what) {
     if (bad) throw OutputError(path + ": " + what + " failed on at least one process");
 }
 
+// `tail` at `at`, collectively: whole MiB as one element each, then the
+// rest, so that a tail past 2 GiB (an int count of bytes) is written whole.
+int write_tail(MPI_File fh, MPI_Offset at, const Bytes& tail) {
+    constexpr std::size_t kMiB = std::size_t{1} << 20;
+    MPI_Datatype mib;
+    MPI_Type_contiguous(static_cast<int>(kMiB), MPI_BYTE, &mib);
+    MPI_Type_commit(&mib);
+    const std::size_t whole = tail.size() / kMiB, rest = tail.size() % kMiB;
+    int rc = MPI_File_write_at_all(fh, at, tail.data(), static_cast<int>(whole), mib, MPI_STATUS_IGNORE);
+    MPI_Type_free(&mib);
+    const MPI_Offset rest_at = at + static_cast<MPI_Offset>(whole * kMiB);
+    const int rc2 = MPI_File_write_at_all(fh, rest_at, tail.data() + whole * kMiB, static_cast<int>(rest), MPI_BYTE,
+                                          MPI_STATUS_IGNORE);
+    return rc != MPI_SUCCESS ? rc : rc2;
+}
+
 }  // namespace
 
 void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
@@ -244,10 +260,7 @@ void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t 
     MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
     if (rank_ == 0) before = 0;
     int rc3 = MPI_File_set_view(fh, 0, MPI_BYTE, MPI_BYTE, "native", MPI_INFO_NULL);
-    if (rc3 == MPI_SUCCESS) {
-        rc3 = MPI_File_write_at_all(fh, static_cast<MPI_Offset>(tail_at) + before, tail.data(), static_cast<int>(tail.size()),
-                                    MPI_BYTE, MPI_STATUS_IGNORE);
-    }
+    if (rc3 == MPI_SUCCESS) rc3 = write_tail(fh, static_cast<MPI_Offset>(tail_at) + before, tail);
     MPI_Type_free(&view);
     MPI_Type_free(&rec);
     const int rc4 = MPI_File_close(&fh);
