@@ -43,10 +43,12 @@ struct ByLo {
     bool operator()(std::uint32_t g, const WarmImpulse& m) const { return g < m.lo; }
 };
 
-// The run of `warm` (sorted by lower id) whose lower body is `gid`.
-std::pair<std::size_t, std::size_t> impulses_of(const std::vector<WarmImpulse>& warm, std::uint32_t gid) {
-    const auto range = std::equal_range(warm.begin(), warm.end(), gid, ByLo{});
-    return {static_cast<std::size_t>(range.first - warm.begin()), static_cast<std::size_t>(range.second - warm.begin())};
+// The run of `warm` (sorted by lower id) whose lower body is `gid`; empty
+// without impulses.
+std::pair<std::size_t, std::size_t> impulses_of(const std::vector<WarmImpulse>* warm, std::uint32_t gid) {
+    if (!warm) return {0, 0};
+    const auto range = std::equal_range(warm->begin(), warm->end(), gid, ByLo{});
+    return {static_cast<std::size_t>(range.first - warm->begin()), static_cast<std::size_t>(range.second - warm->begin())};
 }
 
 // Drops the impulses flagged in `gone`, keeping the order of the rest: one
@@ -61,11 +63,7 @@ void drop_impulses(std::vector<WarmImpulse>& warm, const std::vector<unsigned ch
     warm.resize(keep);
 }
 
-void sort_impulses(std::vector<WarmImpulse>& warm) {
-    std::sort(warm.begin(), warm.end(), [](const WarmImpulse& a, const WarmImpulse& b) {
-        return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
-    });
-}
+void sort_impulses(std::vector<WarmImpulse>& warm) { std::sort(warm.begin(), warm.end(), warm_less); }
 
 }  // namespace
 
@@ -107,13 +105,8 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
         const Vec3 x = position(world, i);
-        std::int64_t contacts = 0;
-        if (warm) {
-            const std::uint32_t gid = world.gid(i);
-            auto it = std::lower_bound(warm->begin(), warm->end(), gid, [](const WarmImpulse& m, std::uint32_t g) { return m.lo < g; });
-            for (; it != warm->end() && it->lo == gid; ++it) ++contacts;
-        }
-        mine.push_back({cells_.key(x.data()), 1 + contacts, 1});
+        const auto [first, last] = impulses_of(warm, world.gid(i));
+        mine.push_back({cells_.key(x.data()), static_cast<std::int64_t>(1 + last - first), 1});
     }
     mine = merge_cells(std::move(mine));
     Bytes packed(mine.size() * sizeof(CellLoad));
@@ -194,7 +187,7 @@ void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
         put(b, world.gid(i));
         put(b, world.state(i));
         put(b, world.origin(i));
-        const auto [first, last] = warm ? impulses_of(*warm, world.gid(i)) : std::pair<std::size_t, std::size_t>{0, 0};
+        const auto [first, last] = impulses_of(warm, world.gid(i));
         put(b, static_cast<std::uint32_t>(last - first));
         for (std::size_t k = first; k < last; ++k) {
             put(b, (*warm)[k]);

@@ -238,9 +238,7 @@ std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<st
     const std::vector<ImpulseRange> ranges =
         index != c.meta.end() ? impulse_ranges(*index, gids) : std::vector<ImpulseRange>{{0, c.impulses}};
     for (const ImpulseRange& r : ranges) scan_impulses(in, c, r, gids, out);
-    std::sort(out.begin(), out.end(), [](const WarmImpulse& a, const WarmImpulse& b) {
-        return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
-    });
+    std::sort(out.begin(), out.end(), warm_less);
     return out;
 }
 

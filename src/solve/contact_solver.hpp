@@ -41,6 +41,10 @@ struct WarmImpulse {
     std::uint32_t lo, hi, index;
     double lambda[3];
 };
+// The canonical order of impulses: (lo, hi, index).
+inline bool warm_less(const WarmImpulse& a, const WarmImpulse& b) {
+    return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.index < b.index;
+}
 
 // The solver's velocity corrections (inv(M) J^T lambda, linear then angular)
 // of local body `local`: six doubles, stored in the solver's body order.
