@@ -86,6 +86,15 @@ TEST_F(Restart, DamagedCheckpointIsRefused) {
     fs::resize_file(dir_ / "c.ckpt", fs::file_size(dir_ / "c.ckpt") - 10);
     EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart c.ckpt --steps 5 -q"), 2);
     EXPECT_NE(err().find("truncated or damaged checkpoint"), std::string::npos) << err();
+    ASSERT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q --checkpoint i.ckpt"), 0);
+    std::string bytes = parode::test::slurp(dir_ / "i.ckpt");
+    const std::size_t at = bytes.find("\"count\":");
+    ASSERT_NE(at, std::string::npos);
+    char& digit = bytes[at + 8];  // the first piece's count, its first digit changed: the index no longer adds up
+    digit = digit == '9' ? '1' : static_cast<char>(digit + 1);
+    std::ofstream(dir_ / "i.ckpt", std::ios::binary) << bytes;
+    EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart i.ckpt --steps 5 -q"), 2);
+    EXPECT_NE(err().find("damaged checkpoint header (impulse_index"), std::string::npos) << err();
     std::ofstream(dir_ / "junk.ckpt") << "not a checkpoint\n";
     EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart junk.ckpt --steps 5 -q"), 2);
     EXPECT_NE(err().find("not a parode checkpoint"), std::string::npos) << err();

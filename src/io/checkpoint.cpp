@@ -106,6 +106,32 @@ nlohmann::json impulse_index(const Domain& domain, const std::vector<WarmImpulse
     return {{"block", block}, {"pieces", pieces}};
 }
 
+// Throws std::runtime_error unless `index` describes `impulses` impulses in
+// whole blocks, each with a lowest lower id no above its highest: a damaged
+// index would make a reader skip impulses it needs.
+void check_index(const nlohmann::json& index, std::uint64_t impulses) {
+    const std::uint64_t block = index.at("block").get<std::uint64_t>();
+    if (block == 0) throw std::runtime_error("impulse_index: block 0, expected at least 1");
+    std::uint64_t total = 0;
+    for (const nlohmann::json& piece : index.at("pieces")) {
+        const std::uint64_t count = piece.at("count").get<std::uint64_t>();
+        const std::vector<std::uint64_t> lo = piece.at("lo").get<std::vector<std::uint64_t>>();
+        if (lo.size() != 2 * ((count + block - 1) / block)) {
+            throw std::runtime_error("impulse_index: a piece of " + std::to_string(count) + " impulses lists " +
+                                     std::to_string(lo.size() / 2) + " blocks of " + std::to_string(block) + ", expected " +
+                                     std::to_string((count + block - 1) / block));
+        }
+        for (std::size_t b = 0; b < lo.size(); b += 2) {
+            if (lo[b] > lo[b + 1]) throw std::runtime_error("impulse_index: a block's lowest id exceeds its highest");
+        }
+        total += count;
+    }
+    if (total != impulses) {
+        throw std::runtime_error("impulse_index: " + std::to_string(total) + " impulses, expected " +
+                                 std::to_string(impulses));
+    }
+}
+
 }  // namespace
 
 void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
@@ -156,6 +182,7 @@ Checkpoint read_checkpoint(const std::string& path) {
         c.bodies = c.meta.at("bodies").get<std::uint64_t>();
         c.impulses = c.meta.at("impulses").get<std::uint64_t>();
         c.step = c.meta.at("step").get<long>();
+        if (c.meta.contains("impulse_index")) check_index(c.meta.at("impulse_index"), c.impulses);
     } catch (const std::exception& e) {
         throw std::invalid_argument(path + ": damaged checkpoint header (" + e.what() + ")");
     }
