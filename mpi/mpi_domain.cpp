@@ -177,7 +177,7 @@ void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step)
 // says whether this process still holds them.
 void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
     std::map<int, Bytes> out;
-    std::vector<unsigned char> gone(warm ? warm->size() : 0, 0);  // impulses leaving with their body
+    std::vector<unsigned char> gone;  // impulses leaving with their body, sized when one does
     long sent = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
@@ -189,6 +189,7 @@ void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
         put(b, world.origin(i));
         const auto [first, last] = impulses_of(warm, world.gid(i));
         put(b, static_cast<std::uint32_t>(last - first));
+        if (first < last && gone.empty()) gone.assign(warm->size(), 0);
         for (std::size_t k = first; k < last; ++k) {
             put(b, (*warm)[k]);
             gone[k] = 1;
@@ -196,7 +197,7 @@ void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
         world.set_ghost(i, true);
         ++sent;
     }
-    if (warm && sent) drop_impulses(*warm, gone);
+    if (!gone.empty()) drop_impulses(*warm, gone);
     receive_bodies(world, warm, comm_.sparse_exchange(out, kTagMigrate));
     migrations_ += sent;
 }
