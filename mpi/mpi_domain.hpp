@@ -32,6 +32,7 @@ namespace parode::mpi {
 class MpiDomain final : public Domain, public CorrectionExchange {
 public:
     MpiDomain(const Scene& scene, const Comm& comm);
+    MpiDomain(Scene&&, const Comm&) = delete;  // keeps a reference to the scene
 
     int rank() const override { return comm_.rank(); }
     int ranks() const override { return comm_.size(); }

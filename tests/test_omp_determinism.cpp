@@ -108,7 +108,8 @@ TEST(SphereBodies, WorldsHintEqualsReadingTheGeoms) {
         const parode::omp::GeomFull hinted = parode::omp::hinted_sphere(w.geoms()[i], *w.sphere_bodies(), i);
         EXPECT_TRUE(same_geom(hinted, parode::omp::read_geom(w.geoms()[i]))) << "body " << i << " (id " << w.gid(i) << ")";
     }
-    const World buggy(test::repo_scene("jobs/scenes/buggy.toml"), SpaceKind::Simple);
+    const Scene buggy_scene = test::repo_scene("jobs/scenes/buggy.toml");
+    const World buggy(buggy_scene, SpaceKind::Simple);
     EXPECT_EQ(buggy.sphere_bodies(), nullptr);  // a box among the bodies
 }
 

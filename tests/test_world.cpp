@@ -88,7 +88,8 @@ TEST(World, DeferredMovesReachOdeAtSync) {
     w.defer_moves(false);  // tells the spaces of what is pending
     EXPECT_EQ(stale_aabbs(w), 0);
 
-    const World buggy(test::repo_scene("jobs/scenes/buggy.toml"), SpaceKind::Simple);
+    const Scene buggy_scene = test::repo_scene("jobs/scenes/buggy.toml");
+    const World buggy(buggy_scene, SpaceKind::Simple);
     EXPECT_FALSE(buggy.bodies_are_spheres());
 }
 

@@ -45,6 +45,7 @@ public:
     };
 
     explicit CellCensus(const Scene& scene);
+    explicit CellCensus(Scene&&) = delete;  // keeps a reference to the scene
     CellStats stats() const;
     // Owned and ghost bodies per rank when the cells are cut into `ranks` blocks.
     GhostEstimate ghosts(int ranks) const;

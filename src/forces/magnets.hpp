@@ -25,6 +25,7 @@ struct BodyWrench {
 class MagnetField {
 public:
     explicit MagnetField(const Scene& scene);
+    explicit MagnetField(Scene&&) = delete;  // keeps a reference to the scene
     // Members (after any change of the world's bodies), pole positions and
     // the cell list, from the current body states (serial).
     void prepare(const World& world);

@@ -69,6 +69,7 @@ struct RunTotals {
 class Pipeline {
 public:
     Pipeline(const Scene& scene, const RunOptions& options);
+    Pipeline(Scene&&, const RunOptions&) = delete;  // keeps a reference to the scene
     void step();
     // Observe now unless the last step was observed, and complete the
     // snapshot files (call once at the end).

@@ -77,6 +77,7 @@ public:
 class ContactSolver : public SolverBackend {
 public:
     explicit ContactSolver(const Scene& scene);
+    explicit ContactSolver(Scene&&) = delete;  // keeps a reference to the scene
     std::string name() const override { return "pgs"; }
     bool uses_contact_joints() const override { return false; }
     void step(World& world, const ContactBuffer& contacts) override;

@@ -51,6 +51,7 @@ class World {
 public:
     // Builds every body of the scene (local index = gid), or only `gids`.
     World(const Scene& scene, SpaceKind space_kind, const std::vector<std::uint32_t>* gids = nullptr);
+    World(Scene&&, SpaceKind, const std::vector<std::uint32_t>* = nullptr) = delete;  // keeps a reference to the scene
     ~World();
     World(const World&) = delete;
     World& operator=(const World&) = delete;
