@@ -201,14 +201,23 @@ void Pipeline::run_forces() {
 
 void Pipeline::run_collide() {
     backend_->collide(world_->space(), scene_.solver.max_contacts, contacts_);
-    if (domain_->distributed()) {  // each contact belongs to the owner of its lower-id body
-        auto& items = contacts_.items();
-        items.erase(std::remove_if(items.begin(), items.end(),
-                                   [this](const ContactRecord& c) { return world_->ghost(World::local_of_geom(c.geom.g1)); }),
-                    items.end());
-    }
+    if (domain_->distributed()) drop_ghost_contacts();
     totals_.contacts += contacts_.size();
     contacts_of_ = world_->generation();
+}
+
+// Each contact belongs to the owner of its lower-id body. A contact's lo is
+// the id of its first geom, which is its body's gid (one geom a body): looked
+// up in the gid map, which is read in order as lo rises, instead of reading
+// ODE's geom and body records per contact (measured at 10^6 catoms on 2
+// ranks: 14 ms a step, a ninth of the collide stage, before).
+void Pipeline::drop_ghost_contacts() {
+    auto& items = contacts_.items();
+    const std::size_t bodies = world_->global_body_count();
+    const auto ghost_lo = [this, bodies](const ContactRecord& c) {
+        return c.lo < bodies && world_->ghost(world_->local_of(c.lo));
+    };
+    items.erase(std::remove_if(items.begin(), items.end(), ghost_lo), items.end());
 }
 
 void Pipeline::run_joints() {

@@ -124,6 +124,7 @@ private:
     void run_migrate();
     void run_forces();
     void run_collide();
+    void drop_ghost_contacts();
     void run_joints();
     void run_solve();
     void run_observe();
