@@ -78,10 +78,36 @@ void MpiDomain::check_scene(const Scene& sc, const std::string& /*collide*/, con
     throw SceneError(v.reason);
 }
 
-std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) const {
+std::vector<std::uint32_t> MpiDomain::restart_bodies(const Scene& scene) const {
     const std::uint64_t n = scene.body_count(), r = static_cast<std::uint64_t>(rank()), p = static_cast<std::uint64_t>(ranks());
     std::vector<std::uint32_t> ids;
     for (std::uint64_t id = n * r / p; id < n * (r + 1) / p; ++id) ids.push_back(static_cast<std::uint32_t>(id));
+    return ids;
+}
+
+// Collective: each process weighs the cells of a block of ids at their scene
+// positions, the cells are partitioned as in a repartition, and each id goes
+// to the owner of its cell (4 bytes an id, instead of a body's state and
+// impulses after it was built: at 10^6 catoms on 2 processes, setup moved
+// 496,568 bodies so).
+std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) {
+    const std::vector<std::uint32_t> block = restart_bodies(scene);
+    std::vector<std::uint64_t> key(block.size());
+    std::vector<CellLoad> mine;
+    mine.reserve(block.size());
+    for (std::size_t k = 0; k < block.size(); ++k) {
+        key[k] = cells_.key(scene.body(block[k]).position.data());
+        mine.push_back({key[k], 1, 1});
+    }
+    partition(merge_cells(std::move(mine)));
+    std::vector<Bytes> out(static_cast<std::size_t>(ranks()));
+    for (std::size_t k = 0; k < block.size(); ++k) put(out[static_cast<std::size_t>(map_.owner(key[k]))], block[k]);
+    std::vector<std::uint32_t> ids;
+    for (const Bytes& b : comm_.all_to_all(out)) {
+        for (std::size_t at = 0; at < b.size();) ids.push_back(take<std::uint32_t>(b, at));
+    }
+    std::sort(ids.begin(), ids.end());
+    partitioned_ = true;
     return ids;
 }
 
@@ -90,10 +116,10 @@ std::string MpiDomain::why() const { return distributed_why(ranks(), cells_.edge
 void MpiDomain::setup(World& world, std::vector<WarmImpulse>* warm) {
     world_ = &world;
     std::uint64_t ids = 0;  // the sum of every mixed gid, for the invariant check
-    for (std::uint32_t id : initial_bodies(scene_)) ids += SplitMix64::mix(id);
+    for (std::size_t i = 0; i < world.body_count(); ++i) ids += SplitMix64::mix(world.gid(i));
     comm_.sum_wrapping(&ids, 1);
     id_hash_ = ids;
-    repartition(world, warm);
+    if (!partitioned_) repartition(world, warm);  // a restart: positions from the checkpoint
     move_bodies(world, warm);
     exchange_states(world);
 }
@@ -108,7 +134,13 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
         const auto [first, last] = impulses_of(warm, world.gid(i));
         mine.push_back({cells_.key(x.data()), static_cast<std::int64_t>(1 + last - first), 1});
     }
-    mine = merge_cells(std::move(mine));
+    partition(merge_cells(std::move(mine)));
+}
+
+// Collective: the root gathers every process's cells (merged), partitions
+// them, keeps parts on the processes that hold most of them (keep_owners) and
+// sends the map back.
+void MpiDomain::partition(std::vector<CellLoad> mine) {
     Bytes packed(mine.size() * sizeof(CellLoad));
     if (!mine.empty()) std::memcpy(packed.data(), mine.data(), packed.size());
     const auto parts = comm_.gather(packed, 0);

@@ -22,6 +22,7 @@
 
 #include "cell_map.hpp"
 #include "comm.hpp"
+#include "partition.hpp"
 #include "domain/cells.hpp"
 #include "domain/domain.hpp"
 #include "solve/contact_solver.hpp"
@@ -37,7 +38,8 @@ public:
     int rank() const override { return comm_.rank(); }
     int ranks() const override { return comm_.size(); }
     void check_scene(const Scene& scene, const std::string& collide, const std::string& solver) const override;
-    std::vector<std::uint32_t> initial_bodies(const Scene& scene) const override;
+    std::vector<std::uint32_t> initial_bodies(const Scene& scene) override;
+    std::vector<std::uint32_t> restart_bodies(const Scene& scene) const override;
     void setup(World& world, std::vector<WarmImpulse>* warm) override;
     void migrate(World& world, std::vector<WarmImpulse>* warm, long step) override;
     void exchange_states(World& world) override;
@@ -75,6 +77,7 @@ public:
 
 private:
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
+    void partition(std::vector<CellLoad> mine);
     void move_bodies(World& world, std::vector<WarmImpulse>* warm);
     void receive_bodies(World& world, std::vector<WarmImpulse>* warm, const std::vector<std::pair<int, Bytes>>& in);
     void index_bodies(World& world);
@@ -97,6 +100,7 @@ private:
     std::vector<int> nbr_index_;                   // rank -> index into nbrs_, or -1
     std::vector<std::vector<std::vector<std::uint32_t>>> corr_;  // colour -> neighbour -> locals
     std::uint64_t id_hash_ = 0;                    // sum of mixed gids of every body
+    bool partitioned_ = false;                     // initial_bodies partitioned the scene's cells
     long conflicts_ = 0;                           // ghosts received for bodies owned here
     long migrations_ = 0, repartitions_ = 0, steps_ = 0;
     CommStats setup_stats_;                        // what setup cost: the stats when the first step began

@@ -58,6 +58,27 @@ TEST(MpiDomain, SetupGivesEveryBodyOneOwnerInItsCells) {
     }
     EXPECT_GT(w.body_count(), w.owned_count()) << "each process holds ghosts of the other's boundary";
     EXPECT_NO_THROW(d.check_invariants(w, 0));
+    EXPECT_EQ(d.migrations(), 0) << "a fresh scene's bodies are built by their owners, none moves at setup";
+}
+
+// A restart builds blocks of ids (the positions are in the checkpoint) and
+// setup moves them to the owners of their cells.
+TEST(MpiDomain, BlocksOfIdsMoveToTheirOwnersAtSetup) {
+    const Scene sc = slab();
+    mpi::MpiDomain d{sc, *g_comm};
+    const std::vector<std::uint32_t> ids = d.restart_bodies(sc);
+    World w{sc, SpaceKind::Simple, &ids};
+    d.setup(w, nullptr);
+    EXPECT_EQ(owned_everywhere(w), 512);
+    const CellSpace cells(sc);
+    for (std::size_t i = 0; i < w.body_count(); ++i) {
+        if (w.ghost(i)) continue;
+        EXPECT_EQ(d.cell_map().owner(cells.key(dBodyGetPosition(w.body(i)))), d.rank()) << "body " << w.gid(i);
+    }
+    std::int64_t moved = d.migrations();
+    g_comm->sum(&moved, 1);
+    EXPECT_GT(moved, 0) << "the slab's halves by id are not its METIS parts";
+    EXPECT_NO_THROW(d.check_invariants(w, 0));
 }
 
 // A cell of the other process, and a point inside it.

@@ -10,7 +10,9 @@
 
 namespace parode {
 
-std::vector<std::uint32_t> Domain::initial_bodies(const Scene& scene) const {
+std::vector<std::uint32_t> Domain::initial_bodies(const Scene& scene) { return restart_bodies(scene); }
+
+std::vector<std::uint32_t> Domain::restart_bodies(const Scene& scene) const {
     std::vector<std::uint32_t> ids(scene.body_count());
     std::iota(ids.begin(), ids.end(), 0u);
     return ids;

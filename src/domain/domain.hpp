@@ -54,8 +54,13 @@ public:
     // run on this domain (collide/solver: the chosen backends).
     virtual void check_scene(const Scene& /*scene*/, const std::string& /*collide*/,
                              const std::string& /*solver*/) const {}
-    // The global ids this process builds before any partition.
-    virtual std::vector<std::uint32_t> initial_bodies(const Scene& scene) const;
+    // The global ids this process builds for a fresh run (collective where
+    // distributed: the scene's cells are partitioned first, so each process
+    // builds the bodies it will own).
+    virtual std::vector<std::uint32_t> initial_bodies(const Scene& scene);
+    // The global ids this process reads from a checkpoint: the positions are
+    // in the file, so the partition comes after (setup).
+    virtual std::vector<std::uint32_t> restart_bodies(const Scene& scene) const;
     // Once, after the World is built: assign cells, move bodies to their
     // owners, make ghosts.
     virtual void setup(World& /*world*/, std::vector<WarmImpulse>* /*warm*/) {}

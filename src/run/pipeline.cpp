@@ -24,7 +24,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     backend_ = BackendRegistry::instance().make(options.collide);
     backend_->set_threads(options.threads);
     backend_->set_scratch(&scratch_);
-    const std::vector<std::uint32_t> gids = domain_->initial_bodies(scene);
+    const std::vector<std::uint32_t> gids =
+        options.restart_path.empty() ? domain_->initial_bodies(scene) : domain_->restart_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     backend_->set_sphere_bodies(world_->sphere_bodies());
