@@ -45,17 +45,22 @@ std::int64_t owned_everywhere(const World& w) {
     return n;
 }
 
+// Every body this process owns lies in one of its cells.
+void expect_owned_in_own_cells(const Scene& sc, const mpi::MpiDomain& d, const World& w) {
+    const CellSpace cells(sc);
+    for (std::size_t i = 0; i < w.body_count(); ++i) {
+        if (w.ghost(i)) continue;
+        EXPECT_EQ(d.cell_map().owner(cells.key(dBodyGetPosition(w.body(i)))), d.rank()) << "body " << w.gid(i);
+    }
+}
+
 TEST(MpiDomain, SetupGivesEveryBodyOneOwnerInItsCells) {
     SlabDomain slab_run;
     const Scene& sc = slab_run.sc;
     mpi::MpiDomain& d = slab_run.d;
     World& w = slab_run.w;
     EXPECT_EQ(owned_everywhere(w), 512);
-    const CellSpace cells(sc);
-    for (std::size_t i = 0; i < w.body_count(); ++i) {
-        if (w.ghost(i)) continue;
-        EXPECT_EQ(d.cell_map().owner(cells.key(dBodyGetPosition(w.body(i)))), d.rank()) << "body " << w.gid(i);
-    }
+    expect_owned_in_own_cells(sc, d, w);
     EXPECT_GT(w.body_count(), w.owned_count()) << "each process holds ghosts of the other's boundary";
     EXPECT_NO_THROW(d.check_invariants(w, 0));
     EXPECT_EQ(d.migrations(), 0) << "a fresh scene's bodies are built by their owners, none moves at setup";
@@ -70,11 +75,7 @@ TEST(MpiDomain, BlocksOfIdsMoveToTheirOwnersAtSetup) {
     World w{sc, SpaceKind::Simple, &ids};
     d.setup(w, nullptr);
     EXPECT_EQ(owned_everywhere(w), 512);
-    const CellSpace cells(sc);
-    for (std::size_t i = 0; i < w.body_count(); ++i) {
-        if (w.ghost(i)) continue;
-        EXPECT_EQ(d.cell_map().owner(cells.key(dBodyGetPosition(w.body(i)))), d.rank()) << "body " << w.gid(i);
-    }
+    expect_owned_in_own_cells(sc, d, w);
     std::int64_t moved = d.migrations();
     g_comm->sum(&moved, 1);
     EXPECT_GT(moved, 0) << "the slab's halves by id are not its METIS parts";

@@ -123,7 +123,6 @@ std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* stat
     place_geom(g, s.position, s.orientation);
     dBodySetLinearVel(b, s.velocity[0], s.velocity[1], s.velocity[2]);
     dBodySetAngularVel(b, s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
-    dBodySetData(b, reinterpret_cast<void*>(static_cast<std::uintptr_t>(local)));
     set_geom_id(g, gid);
     bodies_.push_back(b);
     gids_.push_back(gid);
@@ -154,7 +153,6 @@ void World::remove_body(std::size_t local) {
         origin_[local] = origin_[last];
         slot_[local] = slot_[last];
         geoms_[local] = geoms_[last];
-        dBodySetData(bodies_[local], reinterpret_cast<void*>(static_cast<std::uintptr_t>(local)));
         map_.set(gids_[local], static_cast<std::uint32_t>(local));
     }
     bodies_.pop_back();

@@ -71,10 +71,6 @@ public:
     bool ghost(std::size_t local) const { return ghost_[local] != 0; }
     // Local index of a gid, or IdMap::kNone when it is not held here.
     std::uint32_t local_of(std::uint32_t gid) const { return map_.find(gid); }
-    // Local index of the body of a body geom.
-    static std::size_t local_of_geom(dGeomID g) {
-        return reinterpret_cast<std::uintptr_t>(dBodyGetData(dGeomGetBody(g)));
-    }
     // Bodies of the whole scene; geom ids below this are bodies.
     std::size_t global_body_count() const { return global_; }
     bool is_body_id(std::uint32_t id) const { return id < global_; }
