@@ -31,7 +31,7 @@ baseline build cannot be linked in), so each run pays its setup; only the
 steps are timed.
 
 Usage: python3 jobs/scale_bench.py --baseline /tmp/perf-baseline/build/omp/parode
-           [--parode build/ci/parode] [--sizes 8000,64000,100000,1000000]
+           [--parode build/ci/parode] [--collide grid] [--baseline-collide grid] [--sizes 8000,64000,100000,1000000]
            [--threads 1,2] [--steps 5] [--repeats 3] [--out analysis/results]
 """
 import argparse
@@ -56,11 +56,11 @@ def child_cpu():
     return u.ru_utime + u.ru_stime
 
 
-def run(binary, scene, n, threads, steps):
+def run(binary, scene, n, threads, steps, collide="grid"):
     with tempfile.NamedTemporaryFile(suffix=".json") as f:
         load = os.getloadavg()[0]
         cpu0, t0 = child_cpu(), time.time()
-        subprocess.run([binary, "run", scene, "--set", f"catoms.count={n}", "--collide", "grid", "--solver",
+        subprocess.run([binary, "run", scene, "--set", f"catoms.count={n}", "--collide", collide, "--solver",
                         "parallel", "--threads", str(threads), "--steps", str(steps), "-q", "--report", f.name],
                        check=True)
         cpu, elapsed = child_cpu() - cpu0, time.time() - t0
@@ -215,6 +215,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--parode", default=os.path.join(ROOT, "build/ci/parode"))
     ap.add_argument("--baseline", help="an older parode to compare with (omitted: this build only)")
+    ap.add_argument("--collide", default="grid", help="collision backend of this build's runs")
+    ap.add_argument("--baseline-collide", default="grid",
+                    help="collision backend of the baseline's runs (with --baseline build/ci/parode: two "
+                         "backends of one build side by side, e.g. grid against grid-nolist)")
     ap.add_argument("--scene", default=os.path.join(ROOT, "jobs/scenes/tennis.toml"))
     ap.add_argument("--sizes", default="8000,64000,100000,1000000")
     ap.add_argument("--threads", default="1,2")
@@ -228,15 +232,15 @@ def main():
         return summarise_runs(a.out)
     sizes = [int(x) for x in a.sizes.split(",")]
     threads = [int(x) for x in a.threads.split(",")]
-    builds = [("new", a.parode)] + ([("baseline", a.baseline)] if a.baseline else [])
+    builds = [("new", a.parode, a.collide)] + ([("baseline", a.baseline, a.baseline_collide)] if a.baseline else [])
     os.makedirs(a.out, exist_ok=True)
     machine = {"before": probe_machine(a.parode, max(threads))}
     rows = []
-    combos = [(t, name, binary) for t in threads for name, binary in builds]
+    combos = [(t, name, binary, collide) for t in threads for name, binary, collide in builds]
     for n in sizes:
         for rep in range(a.repeats):
-            for t, name, binary in combos[rep % len(combos):] + combos[:rep % len(combos)]:
-                r = run(binary, a.scene, n, t, a.steps)
+            for t, name, binary, collide in combos[rep % len(combos):] + combos[:rep % len(combos)]:
+                r = run(binary, a.scene, n, t, a.steps, collide)
                 r["build"], r["repeat"] = name, rep
                 rows.append(r)
                 print(f"  {name:8} {n:>8} catoms {t} thread(s): {r['ms_per_step']:.1f} ms/step "

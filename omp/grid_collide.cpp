@@ -19,6 +19,7 @@
 #include "geom_info.hpp"
 #include "grid_pairs.hpp"
 #include "lanes.hpp"
+#include "neighbour_list.hpp"
 #include "team.hpp"
 #include "util/substages.hpp"
 
@@ -85,6 +86,8 @@ struct CollideEngine::Impl {
     std::vector<PrimData> big_prims;
     std::vector<DeferredPair> pending;
     MergeScratch merge;
+    NeighbourList neighbours;                        // for the flat space's spheres
+    bool use_list = true;
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
@@ -120,6 +123,8 @@ struct CollideEngine::Impl {
     void list_split(std::size_t blocks);
     void build_big();
     void all_pairs();
+    bool list_ready(dSpaceID space);
+    void list_pairs();
     void space_internal(dSpaceID space, bool recurse);
     void pair2(dGeomID g1, dGeomID g2);
     void space_vs_geoms(dSpaceID space, const std::vector<dGeomID>& geoms, bool swap);
@@ -256,6 +261,30 @@ void CollideEngine::Impl::all_pairs() {
     }
 }
 
+// Whether the flat space's geoms, just read, take the neighbour list: it
+// covers them still, or it is due to be built and builds.
+bool CollideEngine::Impl::list_ready(dSpaceID space) {
+    const bool flat = use_list && space == flat_space && flat_geoms && flat_geoms->size() == infos.size();
+    if (!flat) return false;
+    if (neighbours.covers(space, infos)) return true;
+    return neighbours.due() && neighbours.build(space, infos, grid);
+}
+
+// The list's pairs, each sphere against the other geoms, and those among
+// themselves.
+void CollideEngine::Impl::list_pairs() {
+    neighbours.others(infos, big);
+    build_big();
+    const PairInputs in = pair_inputs();
+    const PairInputs* pin = &in;
+#pragma omp taskgroup
+    {
+        neighbours.pairs(in, lanes);
+#pragma omp task firstprivate(pin)
+        big_pairs(*pin, lane());
+    }
+}
+
 // Pairs among the geoms of `space` (ODE's dSpaceCollide), then, if `recurse`,
 // the internal pairs of every nested space (as collide_space_reference does).
 void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
@@ -263,6 +292,14 @@ void CollideEngine::Impl::space_internal(dSpaceID space, bool recurse) {
     read_space(space);
     if (use_reference) return;
     const double t1 = now_seconds();
+    if (list_ready(space)) {
+        const double t2 = now_seconds();
+        list_pairs();
+        times.read += t1 - t0;
+        times.build += t2 - t1;
+        times.pairs += now_seconds() - t2;
+        return;  // a flat space: nothing nested
+    }
     split_items();
     grid.build(infos, small, small_bounds);
     build_big();
@@ -387,6 +424,11 @@ void CollideEngine::set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms)
 void CollideEngine::set_sphere_bodies(const SphereBodies* spheres) { impl_->spheres = spheres; }
 int CollideEngine::threads() const { return impl_->team_size(); }
 const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
+void CollideEngine::set_neighbour_list(bool on) { impl_->use_list = on; }
+CollideEngine::ListCounts CollideEngine::list_counts() const {
+    const NeighbourList::Counts& c = impl_->neighbours.counts();
+    return ListCounts{c.builds, c.uses, c.declined, c.pairs};
+}
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;

@@ -19,6 +19,11 @@
 // for being enabled; the results differ only if that space holds disabled or
 // zero-sized geoms (give the spaces different sublevels to avoid it).
 //
+// For the flat space of World (set_geoms, set_sphere_bodies) the grid's sphere
+// pairs are kept between calls as a neighbour list with a skin
+// (neighbour_list.hpp), checked every call and rebuilt through the grid when a
+// sphere has moved the skin's length: the same pairs, so the same contacts.
+//
 // Trade-off: one more copy of every AABB per call (cheap, sequential) buys a
 // broadphase that touches ODE's scattered geom memory once per geom and runs
 // at any size: no n^2 bit matrix as in ODE's hash space.
@@ -74,6 +79,14 @@ public:
     };
     const PhaseTimes& last_phase_times() const;
 
+    // The flat space's neighbour list (neighbour_list.hpp): on by default;
+    // off, every call runs the grid. Results are the same either way.
+    void set_neighbour_list(bool on);
+    struct ListCounts {
+        std::size_t builds = 0, uses = 0, declined = 0, pairs = 0;
+    };
+    ListCounts list_counts() const;
+
     struct Impl;
 
 private:
@@ -83,9 +96,12 @@ private:
 // The "grid" backend: CollideEngine behind the CollideBackend interface. Cheap to
 // construct. It accepts any ODE space; it asks World for a simple space, whose
 // bookkeeping is the cheapest since it only serves as a container.
+// "grid-nolist" is the same without the neighbour list (every call runs the
+// grid): the reference the list is measured against.
 class GridBackend final : public CollideBackend {
 public:
-    std::string name() const override { return "grid"; }
+    explicit GridBackend(bool neighbour_list = true) : list_(neighbour_list) { engine_.set_neighbour_list(list_); }
+    std::string name() const override { return list_ ? "grid" : "grid-nolist"; }
     SpaceKind space_kind() const override { return SpaceKind::Simple; }
     void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override;
     void set_threads(int threads) override { engine_.set_threads(threads); }
@@ -99,6 +115,7 @@ public:
     const Substages* substages() const override { return &times_; }
 
 private:
+    bool list_;
     CollideEngine engine_;
     Substages times_;
 };

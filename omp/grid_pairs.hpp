@@ -31,6 +31,43 @@ struct PairInputs {
     int max_contacts = 1;
 };
 
+// ODE's collideAABBs filter beyond the AABB test: same body, category and
+// collide bits (from the flags, or from infos when they do not fit there).
+inline bool tags_pass(const PairInputs& in, const GridTag& a, const GridTag& b) {
+    const bool bits = ((a.flags | b.flags) & kWideBits) ? body_and_bits_pass(in.infos.full(a.info), in.infos.full(b.info))
+                                                        : packed_bits_pass(a.flags, b.flags);
+    return !(a.body && a.body == b.body) & bits;
+}
+
+// The complete filter on two entries.
+inline bool passes(const PairInputs& in, const GridEntry& a, const GridEntry& b) {
+    return aabb_overlap(a.aabb, b.aabb) & tags_pass(in, a.tag, b.tag);
+}
+
+// The spans of sorted positions geom a is tested against: the later geoms of
+// its cell and the next, then the four forward rows of the half stencil.
+struct Spans {
+    std::uint32_t begin[5], end[5];
+    std::size_t total() const {
+        std::size_t m = 0;
+        for (int r = 0; r < 5; ++r) m += end[r] - begin[r];
+        return m;
+    }
+};
+
+inline Spans spans_of(const CellGrid& g, std::size_t a) {
+    Spans s;
+    const std::uint64_t k = g.key(a);
+    std::uint32_t b0 = 0;
+    g.range(k, k + 1, b0, s.end[0]);
+    s.begin[0] = static_cast<std::uint32_t>(a) + 1;
+    for (int r = 0; r < 4; ++r) {
+        const std::uint64_t c = k + g.row_offsets()[r];
+        g.range(c - 1, c + 1, s.begin[r + 1], s.end[r + 1]);
+    }
+    return s;
+}
+
 // Pairs of the sorted grid geoms [a0, a1) with later grid geoms and with the
 // big list, into `lane`, timing its broadphase and narrowphase.
 void chunk_pairs(const PairInputs& in, std::size_t a0, std::size_t a1, Lane& lane);

@@ -30,6 +30,7 @@ void register_backends() {
     static const OmpLoopRunner runner;
     set_loop_runner(&runner);
     BackendRegistry::instance().add("grid", [] { return std::make_unique<GridBackend>(); });
+    BackendRegistry::instance().add("grid-nolist", [] { return std::make_unique<GridBackend>(false); });
     set_magnet_gather(&gather_magnets_parallel);
     SolverRegistry::instance().add("parallel", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {
         const std::string no = contact_solver_unsupported(s);

@@ -1,0 +1,322 @@
+// The neighbour list of neighbour_list.hpp: the check that it still covers the
+// spheres, its build from the grid's half stencil, and the pass over its pairs.
+// Trade-off: the build's list is assembled serially (a counting sort over a few
+// pairs a sphere); it runs once in many calls, while the check and the pass,
+// which run every call, are tasks.
+#include "neighbour_list.hpp"
+#include "task_split.hpp"
+#include "util/substages.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace parode::omp {
+namespace {
+
+constexpr double kSkin = 0.1;  // skin over the largest radius
+constexpr std::size_t kMaxOutside = 64;  // enabled geoms outside the list, tested against every sphere
+constexpr std::size_t kBlock = 2048;     // table entries per task
+constexpr std::size_t kMaxCooldown = 16;
+
+bool listable(std::uint32_t f) { return (f & kSphere) && !(f & kAux) && (f & kFinite); }
+
+// The radius as a float no smaller than it.
+float radius_up(double r) {
+    float f = static_cast<float>(r);
+    if (static_cast<double>(f) < r) f = std::nextafter(f, HUGE_VALF);
+    return f;
+}
+
+double squared_distance(const dReal* a, const dReal* b) {
+    const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+// Geom a (listed, enabled) against the big entries: as the grid's
+// narrowphase treats a big-list candidate that passed the whole filter.
+void against_big(const PairInputs& in, const GridEntry& ea, const PrimData& pa, Lane& l) {
+    const std::uint32_t fa = ea.tag.flags;
+    for (std::size_t j = 0; j < in.nbig; ++j) {
+        if (!passes(in, ea, in.big[j])) continue;
+        const PrimData& pb = in.big_prims[j];
+        const std::uint32_t fb = in.big[j].tag.flags;
+        if (fast_pair(fa, fb)) {
+            const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) &
+                               fast_touch(pa, true, pb, (fb & kSphere) != 0);
+            const auto tb = static_cast<std::uint32_t>(j) | kBigList;
+            if (touch) l.runs.push_back(PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), ea.tag.info, tb));
+        } else if (fa & fb & kSafe) {
+            l.generic(pa.geom, pb.geom, in.max_contacts);
+        } else {
+            l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
+        }
+    }
+}
+
+// The lists of spheres [s0, s1) (in the grid's order) and their big pairs,
+// into `l`.
+void list_block(const PairInputs& in, const std::uint32_t* order, const std::uint32_t* start,
+                const std::uint32_t* next, std::size_t s0, std::size_t s1, Lane& l) {
+    const GeomInfo* info = in.infos.info;
+    for (std::size_t s = s0; s < s1; ++s) {
+        const std::uint32_t a = order[s];
+        const GeomInfo& ga = info[a];
+        const std::uint32_t fa = ga.prim.flags;
+        if (!(fa & kEnabled)) continue;
+        GridEntry ea;
+        sphere_aabb(ga.prim.p, ea.aabb);
+        ea.tag = GridTag{ga.body, a, fa};
+        const std::uint32_t k0 = start[s], k1 = start[s + 1];
+        std::size_t n = l.runs.size();
+        l.runs.resize(n + (k1 - k0));
+        for (std::uint32_t k = k0; k < k1; ++k) {
+            const std::uint32_t b = next[k];
+            const GeomInfo& gb = info[b];
+            dReal bb[6];
+            sphere_aabb(gb.prim.p, bb);
+            const GridTag tb{gb.body, b, gb.prim.flags};
+            const bool touch = ((gb.prim.flags & kEnabled) != 0) & aabb_overlap(ea.aabb, bb) &
+                               tags_pass(in, ea.tag, tb) & (in.max_contacts >= 1) &
+                               fast_touch(ga.prim, true, gb.prim, true);
+            l.runs[n] = PairRun(std::min(ga.prim.id, gb.prim.id), std::max(ga.prim.id, gb.prim.id), a, b);
+            n += touch;
+        }
+        l.runs.resize(n);
+        if (in.nbig) against_big(in, ea, ga.prim, l);
+    }
+}
+
+}  // namespace
+
+bool NeighbourList::check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const {
+    const double skin2 = skin_ * skin_;
+    const float* ref = ref_.data();
+    bool ok = true;
+    for (std::size_t i = i0; i < i1; ++i) {
+        const PrimData& p = info[i].prim;
+        const float* r = ref + 4 * i;
+        const bool listed = r[3] >= 0;
+        const double dx = p.p[0] - r[0], dy = p.p[1] - r[1], dz = p.p[2] - r[2];
+        const bool near = (dx * dx + dy * dy + dz * dz <= skin2) & (p.p[3] <= r[3]);
+        ok &= (listable(p.flags) == listed) & (!listed | near);
+    }
+    return ok;
+}
+
+bool NeighbourList::covers(const void* owner, const GeomTable& infos) {
+    if (owner != owner_ || infos.size() != n_ || owner == nullptr) return false;
+    const std::size_t n = n_;
+    const std::size_t blocks = task_count(n, kBlock);
+    std::vector<unsigned char> ok(blocks, 0);
+    unsigned char* out = ok.data();
+    const GeomInfo* info = infos.view().info;
+    const NeighbourList* self = this;
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(out, info, self, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        out[b] = self->check_block(info, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
+    }
+    if (std::all_of(ok.begin(), ok.end(), [](unsigned char c) { return c != 0; })) {
+        ++lived_;
+        ++counts_.uses;
+        return true;
+    }
+    // Spent. After a list that served fewer than two calls beyond its build,
+    // the grid runs for longer each time before the next build: spheres that
+    // move this fast gain nothing from a list.
+    cooldown_ = lived_ < 2 ? std::min(kMaxCooldown, std::max<std::size_t>(1, 2 * cooldown_)) : 0;
+    wait_ = cooldown_;
+    owner_ = nullptr;
+    return false;
+}
+
+bool NeighbourList::due() {
+    if (wait_ > 0) {
+        --wait_;
+        return false;
+    }
+    return true;
+}
+
+void NeighbourList::decline() {
+    owner_ = nullptr;
+    n_ = 0;
+    counts_.pairs = 0;
+    ++counts_.declined;
+    wait_ = kMaxCooldown;
+}
+
+// References of table entries [i0, i1) (a float centre and a rounded-up
+// radius for a plain sphere, radius -1 for the others), and what the build
+// needs to know of them.
+NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, std::size_t i1) {
+    Part part;  // a local, stored once: neighbouring blocks' parts share cache lines
+    for (std::size_t i = i0; i < i1; ++i) {
+        const PrimData& p = t.info[i].prim;
+        float* r = ref_.data() + 4 * i;
+        if (!listable(p.flags)) {
+            r[3] = -1;
+            ++part.outside;
+            part.enabled_outside += (p.flags & kEnabled) != 0;
+            continue;
+        }
+        for (int k = 0; k < 3; ++k) r[k] = static_cast<float>(p.p[k]);
+        r[3] = radius_up(p.p[3]);
+        const double back[3] = {r[0], r[1], r[2]};
+        part.shift = std::max(part.shift, std::sqrt(squared_distance(p.p, back)));
+        part.rmax = std::max(part.rmax, p.p[3]);
+        ++part.listed;
+        part.bounds.add(t, i);
+    }
+    return part;
+}
+
+// The plain spheres (items, for the grid) and the other geoms (outside_), in
+// table order, block by block in tasks.
+void NeighbourList::list_members(const GeomView& t, std::vector<Part>& parts, std::vector<std::uint32_t>& items) {
+    std::size_t listed = 0, outside = 0;
+    for (Part& p : parts) {
+        const std::size_t l = p.listed, o = p.outside;
+        p.listed = listed;
+        p.outside = outside;
+        listed += l;
+        outside += o;
+    }
+    items.resize(listed);
+    outside_.resize(outside);
+    const std::size_t n = n_, blocks = parts.size();
+    const Part* part = parts.data();
+    const float* ref = ref_.data();
+    std::uint32_t* in = items.data();
+    std::uint32_t* out = outside_.data();
+    (void)t;
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(part, ref, in, out, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        std::size_t l = part[b].listed, o = part[b].outside;
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            if (ref[4 * i + 3] >= 0) in[l++] = static_cast<std::uint32_t>(i);
+            else out[o++] = static_cast<std::uint32_t>(i);
+        }
+    }
+}
+
+// Each sorted grid sphere's list: the later spheres of its half stencil whose
+// centres lie within the sum of the (rounded-up) radii plus `reach`, by table
+// index, per chunk of sorted positions; start_[s + 1] gets the count of s.
+void NeighbourList::find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint32_t>>& found) {
+    const std::size_t n = grid.size();
+    const std::size_t chunks = found.size();
+    const CellGrid* g = &grid;
+    const float* ref = ref_.data();
+    std::vector<std::uint32_t>* out = found.data();
+    std::uint32_t* order = order_.data();
+    std::uint32_t* count = start_.data() + 1;
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(g, ref, out, order, count, n, chunks, reach)
+    for (std::size_t c = 0; c < chunks; ++c) {
+        std::vector<std::uint32_t>& mine = out[c];
+        mine.clear();
+        const PrimData* prim = g->prims();
+        for (std::size_t s = task_begin(n, chunks, c); s < task_begin(n, chunks, c + 1); ++s) {
+            const std::uint32_t ta = g->tag(s).info;
+            order[s] = ta;
+            const std::size_t before = mine.size();
+            const Spans sp = spans_of(*g, s);
+            for (int r = 0; r < 5; ++r) {
+                for (std::uint32_t b = sp.begin[r]; b < sp.end[r]; ++b) {
+                    const std::uint32_t tb = g->tag(b).info;
+                    const double t = static_cast<double>(ref[4 * ta + 3]) + ref[4 * tb + 3] + reach;
+                    if (squared_distance(prim[s].p, prim[b].p) <= t * t * (1 + 1e-9)) mine.push_back(tb);
+                }
+            }
+            count[s] = static_cast<std::uint32_t>(mine.size() - before);
+        }
+    }
+}
+
+// The chunks' lists joined into one (a prefix over chunks, then each chunk's
+// starts and entries in a task).
+void NeighbourList::join(const std::vector<std::vector<std::uint32_t>>& found) {
+    const std::size_t n = order_.size(), chunks = found.size();
+    std::vector<std::size_t> offset(chunks + 1, 0);
+    for (std::size_t c = 0; c < chunks; ++c) offset[c + 1] = offset[c] + found[c].size();
+    next_.resize(offset[chunks]);
+    start_[0] = 0;
+    const std::vector<std::uint32_t>* in = found.data();
+    const std::size_t* at = offset.data();
+    std::uint32_t* start = start_.data();
+    std::uint32_t* next = next_.data();
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(in, at, start, next, n, chunks)
+    for (std::size_t c = 0; c < chunks; ++c) {
+        std::uint32_t run = static_cast<std::uint32_t>(at[c]);
+        for (std::size_t s = task_begin(n, chunks, c); s < task_begin(n, chunks, c + 1); ++s) {
+            const std::uint32_t k = start[s + 1];
+            start[s + 1] = run + k;
+            run += k;
+        }
+        std::copy(in[c].begin(), in[c].end(), next + at[c]);
+    }
+    counts_.pairs = next_.size();
+}
+
+bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& grid) {
+    const GeomView t = infos.view();
+    n_ = infos.size();
+    ref_.resize(4 * n_);
+    const std::size_t n = n_, blocks = task_count(n, kBlock);
+    std::vector<Part> parts(blocks);
+    Part* part = parts.data();
+    NeighbourList* self = this;
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(part, self, t, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) part[b] = self->reference(t, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
+    Part all;
+    for (const Part& p : parts) {
+        all.enabled_outside += p.enabled_outside;
+        all.rmax = std::max(all.rmax, p.rmax);
+        all.shift = std::max(all.shift, p.shift);
+        all.bounds.add(p.bounds);
+    }
+    skin_ = kSkin * all.rmax;
+    if (all.enabled_outside > kMaxOutside || !(all.shift <= 0.25 * skin_)) {
+        decline();
+        return false;
+    }
+    std::vector<std::uint32_t> items;
+    list_members(t, parts, items);
+    const double reach = 2 * skin_ + 2 * all.shift;
+    all.bounds.ext += reach;
+    grid.build(infos, items, all.bounds);
+    order_.resize(items.size());
+    start_.resize(items.size() + 1);
+    std::vector<std::vector<std::uint32_t>> found(task_count(items.size(), kBlock));
+    find_pairs(grid, reach, found);
+    join(found);
+    owner_ = owner;
+    lived_ = 0;
+    ++counts_.builds;
+    return true;
+}
+
+void NeighbourList::others(const GeomTable& infos, std::vector<std::uint32_t>& out) const {
+    out.clear();
+    for (std::uint32_t i : outside_) {
+        if (infos[i].prim.flags & kEnabled) out.push_back(i);
+    }
+}
+
+void NeighbourList::pairs(const PairInputs& in, std::vector<Lane>& lanes) const {
+    const std::size_t n = order_.size();
+    const std::size_t blocks = task_count(n, kBlock);
+    const std::uint32_t* order = order_.data();
+    const std::uint32_t* start = start_.data();
+    const std::uint32_t* next = next_.data();
+    const PairInputs* pin = &in;
+    Lane* lane = lanes.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(pin, order, start, next, lane, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        Lane& l = lane[thread_index()];
+        const double t0 = now_seconds();
+        list_block(*pin, order, start, next, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), l);
+        l.narrow += now_seconds() - t0;
+    }
+}
+
+}  // namespace parode::omp

@@ -1,0 +1,85 @@
+// A neighbour list with a skin (a Verlet list) over the plain spheres of
+// World's flat space, kept from one collision call to the next. Built from
+// the uniform grid (cell_grid.hpp), it holds every pair of spheres whose
+// reference centres lie within the sum of their radii plus twice the skin.
+// While no sphere has moved the skin's length from its reference centre nor
+// grown, every pair that can touch is on the list, so a call tests only the
+// list's pairs (about three a sphere in a pile, against thirteen boxes of the
+// grid's half stencil) with ODE's whole filter (enabled, closed AABB overlap,
+// body, category and collide bits) and the exact touch test: the same pairs as
+// the grid, hence the same contacts, bit for bit, after the canonical merge.
+// The other geoms (planes, boxes, geoms outside the grid's size) are tested
+// against every sphere and each other on every call, as the grid's big list.
+// Reference centres are floats (the error of rounding them is measured at the
+// build and added to the skin), radii rounded up. Lists follow the grid's
+// order of the spheres, so that the build needs no sort.
+// Trade-off: about 36 bytes a sphere kept between calls and a rebuild whenever
+// one sphere has moved the skin's length; a scene whose spheres all fly apart
+// fast rebuilds every call and then falls back to the grid for a while.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "cell_grid.hpp"
+#include "geom_info.hpp"
+#include "grid_pairs.hpp"
+#include "lanes.hpp"
+
+namespace parode::omp {
+
+class NeighbourList {
+public:
+    // Whether the list built for `owner` still covers every pair of the
+    // table's spheres that can touch (checked in tasks). Counts the use.
+    bool covers(const void* owner, const GeomTable& infos);
+    // Whether a failed check should be followed by a build: after lists that
+    // lasted no call, the grid runs for 1, 2, 4 ... 16 calls before the next.
+    bool due();
+    // Builds the list of `infos` for `owner` through `grid` (whose contents it
+    // overwrites). False when the table does not suit (too many geoms other
+    // than plain spheres, or coordinates too large for float references): the
+    // list is then empty and covers nothing.
+    bool build(const void* owner, const GeomTable& infos, CellGrid& grid);
+    // The enabled geoms outside the list, by table index.
+    void others(const GeomTable& infos, std::vector<std::uint32_t>& out) const;
+    // The list's pairs and each sphere against the big entries of `in`, in
+    // tasks, into lanes[thread] (runs as the grid's narrowphase writes them).
+    void pairs(const PairInputs& in, std::vector<Lane>& lanes) const;
+
+    struct Counts {
+        std::size_t builds = 0, uses = 0, declined = 0;
+        std::size_t pairs = 0;  // on the list now
+    };
+    const Counts& counts() const { return counts_; }
+    double skin() const { return skin_; }
+
+private:
+    // What the build's first pass learns of a block of the table.
+    struct Part {
+        std::size_t listed = 0, outside = 0, enabled_outside = 0;
+        double rmax = 0, shift = 0;
+        CellBounds bounds;
+    };
+    bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
+    void decline();
+    Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
+    void list_members(const GeomView& t, std::vector<Part>& parts, std::vector<std::uint32_t>& items);
+    void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint32_t>>& found);
+    void join(const std::vector<std::vector<std::uint32_t>>& found);
+
+    const void* owner_ = nullptr;
+    std::size_t n_ = 0;
+    double skin_ = 0;
+    std::vector<float> ref_;               // x, y, z, radius (rounded up) per table index; radius < 0: not listed
+    // The spheres in the grid's order, each with its list: sphere s is table
+    // entry order_[s], its list next_[start_[s] .. start_[s + 1]) (table
+    // entries later in the grid's half stencil).
+    std::vector<std::uint32_t> order_, start_, next_;
+    std::vector<std::uint32_t> outside_;   // table indices not listed
+    std::size_t lived_ = 0;                // calls the current list served
+    std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
+    Counts counts_;
+};
+
+}  // namespace parode::omp
