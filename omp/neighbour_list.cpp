@@ -32,32 +32,65 @@ double squared_distance(const dReal* a, const dReal* b) {
     return dx * dx + dy * dy + dz * dz;
 }
 
+// A pair of a listed sphere and a big entry that is not a fast pair.
+struct BigPair {
+    const PrimData* a;
+    std::uint32_t big;
+};
+
 // Geom a (listed, enabled) against the big entries: as the grid's
-// narrowphase treats a big-list candidate that passed the whole filter.
-void against_big(const PairInputs& in, const GridEntry& ea, const PrimData& pa, Lane& l) {
+// narrowphase treats a big-list candidate that passed the whole filter. Fast
+// pairs that touch are written at out[n] (n advanced); the others are set
+// aside in `slow`.
+std::size_t against_big(const PairInputs& in, const GridEntry& ea, const PrimData& pa, PairRun* out, std::size_t n,
+                        std::vector<BigPair>& slow) {
     const std::uint32_t fa = ea.tag.flags;
     for (std::size_t j = 0; j < in.nbig; ++j) {
         if (!passes(in, ea, in.big[j])) continue;
         const PrimData& pb = in.big_prims[j];
         const std::uint32_t fb = in.big[j].tag.flags;
-        if (fast_pair(fa, fb)) {
-            const bool touch = (in.max_contacts >= 1) & (pa.geom != pb.geom) &
-                               fast_touch(pa, true, pb, (fb & kSphere) != 0);
-            const auto tb = static_cast<std::uint32_t>(j) | kBigList;
-            if (touch) l.runs.push_back(PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), ea.tag.info, tb));
-        } else if (fa & fb & kSafe) {
-            l.generic(pa.geom, pb.geom, in.max_contacts);
-        } else {
-            l.deferred.push_back(DeferredPair{pa.geom, pb.geom});
+        if (!fast_pair(fa, fb)) {
+            slow.push_back(BigPair{&pa, static_cast<std::uint32_t>(j)});
+            continue;
         }
+        const bool touch =
+            (in.max_contacts >= 1) & (pa.geom != pb.geom) & fast_touch(pa, true, pb, (fb & kSphere) != 0);
+        out[n] = PairRun(std::min(pa.id, pb.id), std::max(pa.id, pb.id), ea.tag.info,
+                         static_cast<std::uint32_t>(j) | kBigList);
+        n += touch;
     }
+    return n;
+}
+
+// The listed pairs of sphere s (in the grid's order) at out[n]; returns the
+// new n.
+std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimData& pa, const std::uint32_t* next,
+                        std::uint32_t k0, std::uint32_t k1, PairRun* out, std::size_t n) {
+    const GeomInfo* info = in.infos.info;
+    for (std::uint32_t k = k0; k < k1; ++k) {
+        const std::uint32_t b = next[k];
+        const GeomInfo& gb = info[b];
+        dReal bb[6];
+        sphere_aabb(gb.prim.p, bb);
+        const GridTag tb{gb.body, b, gb.prim.flags};
+        const bool touch = ((gb.prim.flags & kEnabled) != 0) & aabb_overlap(ea.aabb, bb) &
+                           tags_pass(in, ea.tag, tb) & (in.max_contacts >= 1) & fast_touch(pa, true, gb.prim, true);
+        out[n] = PairRun(std::min(pa.id, gb.prim.id), std::max(pa.id, gb.prim.id), ea.tag.info, b);
+        n += touch;
+    }
+    return n;
 }
 
 // The lists of spheres [s0, s1) (in the grid's order) and their big pairs,
-// into `l`.
+// into `l`: room for every candidate is made once, each written and kept only
+// if it touches (no branch on an outcome close to random in a pile).
 void list_block(const PairInputs& in, const std::uint32_t* order, const std::uint32_t* start,
                 const std::uint32_t* next, std::size_t s0, std::size_t s1, Lane& l) {
     const GeomInfo* info = in.infos.info;
+    std::size_t n = l.runs.size();
+    l.runs.resize(n + (start[s1] - start[s0]) + (s1 - s0) * in.nbig);
+    PairRun* out = l.runs.data();
+    std::vector<BigPair> slow;
     for (std::size_t s = s0; s < s1; ++s) {
         const std::uint32_t a = order[s];
         const GeomInfo& ga = info[a];
@@ -66,23 +99,14 @@ void list_block(const PairInputs& in, const std::uint32_t* order, const std::uin
         GridEntry ea;
         sphere_aabb(ga.prim.p, ea.aabb);
         ea.tag = GridTag{ga.body, a, fa};
-        const std::uint32_t k0 = start[s], k1 = start[s + 1];
-        std::size_t n = l.runs.size();
-        l.runs.resize(n + (k1 - k0));
-        for (std::uint32_t k = k0; k < k1; ++k) {
-            const std::uint32_t b = next[k];
-            const GeomInfo& gb = info[b];
-            dReal bb[6];
-            sphere_aabb(gb.prim.p, bb);
-            const GridTag tb{gb.body, b, gb.prim.flags};
-            const bool touch = ((gb.prim.flags & kEnabled) != 0) & aabb_overlap(ea.aabb, bb) &
-                               tags_pass(in, ea.tag, tb) & (in.max_contacts >= 1) &
-                               fast_touch(ga.prim, true, gb.prim, true);
-            l.runs[n] = PairRun(std::min(ga.prim.id, gb.prim.id), std::max(ga.prim.id, gb.prim.id), a, b);
-            n += touch;
-        }
-        l.runs.resize(n);
-        if (in.nbig) against_big(in, ea, ga.prim, l);
+        n = list_sphere(in, ea, ga.prim, next, start[s], start[s + 1], out, n);
+        if (in.nbig) n = against_big(in, ea, ga.prim, out, n, slow);
+    }
+    l.runs.resize(n);
+    for (const BigPair& p : slow) {
+        const PrimData& pb = in.big_prims[p.big];
+        if (p.a->flags & pb.flags & kSafe) l.generic(p.a->geom, pb.geom, in.max_contacts);
+        else l.deferred.push_back(DeferredPair{p.a->geom, pb.geom});
     }
 }
 
