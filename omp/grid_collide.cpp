@@ -135,7 +135,9 @@ void CollideEngine::Impl::start(int max, int team) {
     max_contacts = max;
     use_reference = false;
     times = PhaseTimes{};
-    lanes.resize(static_cast<std::size_t>(team));
+    // Lanes beyond the team's (the neighbour list's blocks) are kept with
+    // their room, empty.
+    lanes.resize(std::max(lanes.size(), static_cast<std::size_t>(team)));
     for (Lane& l : lanes) l.clear();
 }
 
@@ -275,14 +277,14 @@ bool CollideEngine::Impl::list_ready(dSpaceID space) {
 void CollideEngine::Impl::list_pairs() {
     neighbours.others(infos, big);
     build_big();
+    // A lane per block of the table (their runs in canonical order for the
+    // merge, lanes.hpp), and the big pairs in the last; the first lanes still
+    // serve the threads afterwards (deferred pairs).
+    const std::size_t blocks = neighbours.blocks();
+    if (lanes.size() < blocks + 1) lanes.resize(blocks + 1);
     const PairInputs in = pair_inputs();
-    const PairInputs* pin = &in;
-#pragma omp taskgroup
-    {
-        neighbours.pairs(in, lanes);
-#pragma omp task firstprivate(pin)
-        big_pairs(*pin, lane());
-    }
+    neighbours.pairs(in, lanes.data());
+    big_pairs(in, lanes[blocks]);
 }
 
 // Pairs among the geoms of `space` (ODE's dSpaceCollide), then, if `recurse`,

@@ -4,7 +4,9 @@
 // per lane); each block is then sorted by (lo, hi) and at once written out at
 // its offset (stored runs copied, grid sphere runs computed in place), in one
 // task, while its runs are in that thread's cache. Only the prefix sums
-// (lanes x blocks entries) are serial.
+// (lanes x blocks entries) are serial. Lanes that already hold their runs in
+// canonical order, one after the other (the neighbour list's blocks in
+// World's spaces), are written out as they are, one lane per task.
 // Trade-off: blocks split the id range evenly, so a scene whose ids crowd in
 // one part of the range puts more work in a few blocks; that costs balance in
 // the sort, never correctness. Pairs reported twice (only possible through
@@ -187,6 +189,78 @@ void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, cons
     }
 }
 
+// What the merge learns of a lane in one pass: whether its runs are in
+// strictly increasing (lo, hi) order, its first and last, and its contacts.
+struct LaneOrder {
+    bool sorted = true;
+    std::uint64_t first = 0, last = 0;
+    std::size_t contacts = 0;
+};
+
+std::uint64_t run_key(const PairRun& r) { return std::uint64_t{r.lo} << 32 | r.hi; }
+
+LaneOrder lane_order(const Lane& l) {
+    LaneOrder o;
+    const std::size_t n = l.runs.size();
+    if (n == 0) return o;
+    o.first = run_key(l.runs[0]);
+    std::uint64_t prev = o.first;
+    o.contacts = run_contacts(l.runs[0].a, l.runs[0].b);
+    for (std::size_t i = 1; i < n; ++i) {
+        const std::uint64_t k = run_key(l.runs[i]);
+        o.sorted &= prev < k;
+        o.contacts += run_contacts(l.runs[i].a, l.runs[i].b);
+        prev = k;
+    }
+    o.last = prev;
+    return o;
+}
+
+// Where each lane's contacts go if the lanes, one after the other, already
+// hold their runs in canonical order (offsets, one more than lanes); false
+// otherwise.
+bool ordered_offsets(const std::vector<Lane>& lanes, std::vector<std::size_t>& offsets) {
+    const std::size_t nl = lanes.size();
+    std::vector<LaneOrder> order(nl);
+    LaneOrder* out = order.data();
+    const Lane* lane = lanes.data();
+#pragma omp taskloop grainsize(1) default(none) firstprivate(lane, out, nl)
+    for (std::size_t l = 0; l < nl; ++l) out[l] = lane_order(lane[l]);
+    offsets.assign(nl + 1, 0);
+    bool any = false;
+    std::uint64_t prev = 0;
+    for (std::size_t l = 0; l < nl; ++l) {
+        offsets[l + 1] = offsets[l] + order[l].contacts;
+        if (lanes[l].runs.empty()) continue;
+        if (!order[l].sorted || (any && !(prev < order[l].first))) return false;
+        prev = order[l].last;
+        any = true;
+    }
+    return true;
+}
+
+// The lanes' contacts, one lane per task, at their offsets.
+void write_lanes(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& offsets,
+                 ContactBuffer& out) {
+    const std::size_t nl = lanes.size();
+    scratch_resize(out.items(), offsets[nl]);  // every element is written below
+    ContactRecord* dst = out.items().data();
+    const Lane* lane = lanes.data();
+    const std::size_t* offset = offsets.data();
+    const FastSource* src = &fast;
+#pragma omp taskloop grainsize(1) default(none) firstprivate(dst, lane, offset, src, nl)
+    for (std::size_t l = 0; l < nl; ++l) {
+        const std::vector<PairRun>& runs = lane[l].runs;
+        const std::size_t n = runs.size();
+        ContactRecord* to = dst + offset[l];
+        for (std::size_t i = 0; i < n; ++i) {
+            const PairRun& r = runs[i];
+            if (i + kAhead < n) prefetch_run(RunRef(0, 0, 0, runs[i + kAhead].a, runs[i + kAhead].b), *src);
+            to = write_run(RunRef(r.lo, r.hi, static_cast<std::uint32_t>(l), r.a, r.b), lane, *src, to);
+        }
+    }
+}
+
 }  // namespace
 
 void Lane::fast(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
@@ -222,6 +296,7 @@ void store_fast_runs(Lane& lane, const FastSource& fast) {
 }
 
 void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& m) {
+    if (ordered_offsets(lanes, m.contacts)) return write_lanes(lanes, fast, m.contacts, out);
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next, m.block_contacts);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);

@@ -62,8 +62,7 @@ std::size_t against_big(const PairInputs& in, const GridEntry& ea, const PrimDat
     return n;
 }
 
-// The listed pairs of sphere s (in the grid's order) at out[n]; returns the
-// new n.
+// The listed pairs of a sphere at out[n]; returns the new n.
 std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimData& pa, const std::uint32_t* next,
                         std::uint32_t k0, std::uint32_t k1, PairRun* out, std::size_t n) {
     const GeomInfo* info = in.infos.info;
@@ -81,25 +80,26 @@ std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimDat
     return n;
 }
 
-// The lists of spheres [s0, s1) (in the grid's order) and their big pairs,
-// into `l`: room for every candidate is made once, each written and kept only
-// if it touches (no branch on an outcome close to random in a pile).
-void list_block(const PairInputs& in, const std::uint32_t* order, const std::uint32_t* start,
-                const std::uint32_t* next, std::size_t s0, std::size_t s1, Lane& l) {
+// The lists of table entries [i0, i1) and their big pairs, into `l`: room
+// for every candidate is made once, each written and kept only if it touches
+// (no branch on an outcome close to random in a pile). In World's spaces the
+// table is in id order and each list sorted, so the runs come out in
+// canonical order unless a sphere meets a geom through dCollide.
+void list_block(const PairInputs& in, const std::uint32_t* start, const std::uint32_t* next, std::size_t i0,
+                std::size_t i1, Lane& l) {
     const GeomInfo* info = in.infos.info;
     std::size_t n = l.runs.size();
-    l.runs.resize(n + (start[s1] - start[s0]) + (s1 - s0) * in.nbig);
+    l.runs.resize(n + (start[i1] - start[i0]) + (i1 - i0) * in.nbig);
     PairRun* out = l.runs.data();
     std::vector<BigPair> slow;
-    for (std::size_t s = s0; s < s1; ++s) {
-        const std::uint32_t a = order[s];
+    for (std::size_t a = i0; a < i1; ++a) {
         const GeomInfo& ga = info[a];
         const std::uint32_t fa = ga.prim.flags;
-        if (!(fa & kEnabled)) continue;
+        if (!listable(fa) || !(fa & kEnabled)) continue;
         GridEntry ea;
         sphere_aabb(ga.prim.p, ea.aabb);
-        ea.tag = GridTag{ga.body, a, fa};
-        n = list_sphere(in, ea, ga.prim, next, start[s], start[s + 1], out, n);
+        ea.tag = GridTag{ga.body, static_cast<std::uint32_t>(a), fa};
+        n = list_sphere(in, ea, ga.prim, next, start[a], start[a + 1], out, n);
         if (in.nbig) n = against_big(in, ea, ga.prim, out, n, slow);
     }
     l.runs.resize(n);
@@ -223,60 +223,64 @@ void NeighbourList::list_members(const GeomView& t, std::vector<Part>& parts, st
     }
 }
 
-// Each sorted grid sphere's list: the later spheres of its half stencil whose
-// centres lie within the sum of the (rounded-up) radii plus `reach`, by table
-// index, per chunk of sorted positions; start_[s + 1] gets the count of s.
-void NeighbourList::find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint32_t>>& found) {
+// Pairs of sorted grid spheres within the sum of their (rounded-up) radii
+// plus `reach`, as (lower, higher) table indices, per chunk of sorted
+// positions.
+void NeighbourList::find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const {
     const std::size_t n = grid.size();
     const std::size_t chunks = found.size();
     const CellGrid* g = &grid;
     const float* ref = ref_.data();
-    std::vector<std::uint32_t>* out = found.data();
-    std::uint32_t* order = order_.data();
-    std::uint32_t* count = start_.data() + 1;
-#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(g, ref, out, order, count, n, chunks, reach)
+    std::vector<std::uint64_t>* out = found.data();
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(g, ref, out, n, chunks, reach)
     for (std::size_t c = 0; c < chunks; ++c) {
-        std::vector<std::uint32_t>& mine = out[c];
-        mine.clear();
+        std::vector<std::uint64_t>& mine = out[c];
         const PrimData* prim = g->prims();
         for (std::size_t s = task_begin(n, chunks, c); s < task_begin(n, chunks, c + 1); ++s) {
             const std::uint32_t ta = g->tag(s).info;
-            order[s] = ta;
-            const std::size_t before = mine.size();
             const Spans sp = spans_of(*g, s);
             for (int r = 0; r < 5; ++r) {
                 for (std::uint32_t b = sp.begin[r]; b < sp.end[r]; ++b) {
                     const std::uint32_t tb = g->tag(b).info;
                     const double t = static_cast<double>(ref[4 * ta + 3]) + ref[4 * tb + 3] + reach;
-                    if (squared_distance(prim[s].p, prim[b].p) <= t * t * (1 + 1e-9)) mine.push_back(tb);
+                    if (!(squared_distance(prim[s].p, prim[b].p) <= t * t * (1 + 1e-9))) continue;
+                    const std::uint64_t lo = std::min(ta, tb), hi = std::max(ta, tb);
+                    mine.push_back(lo << 32 | hi);
                 }
             }
-            count[s] = static_cast<std::uint32_t>(mine.size() - before);
         }
     }
 }
 
-// The chunks' lists joined into one (a prefix over chunks, then each chunk's
-// starts and entries in a task).
-void NeighbourList::join(const std::vector<std::vector<std::uint32_t>>& found) {
-    const std::size_t n = order_.size(), chunks = found.size();
-    std::vector<std::size_t> offset(chunks + 1, 0);
-    for (std::size_t c = 0; c < chunks; ++c) offset[c + 1] = offset[c] + found[c].size();
-    next_.resize(offset[chunks]);
-    start_[0] = 0;
-    const std::vector<std::uint32_t>* in = found.data();
-    const std::size_t* at = offset.data();
+// The pairs as one list per lower table index, each sorted: counts and
+// places taken with atomic increments (in tasks, in any order), then each
+// list sorted, so the result does not depend on the order.
+void NeighbourList::join(const std::vector<std::vector<std::uint64_t>>& found) {
+    const std::size_t chunks = found.size(), n = n_;
+    start_.assign(n + 1, 0);
+    const std::vector<std::uint64_t>* in = found.data();
     std::uint32_t* start = start_.data();
-    std::uint32_t* next = next_.data();
-#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(in, at, start, next, n, chunks)
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(in, start, chunks)
     for (std::size_t c = 0; c < chunks; ++c) {
-        std::uint32_t run = static_cast<std::uint32_t>(at[c]);
-        for (std::size_t s = task_begin(n, chunks, c); s < task_begin(n, chunks, c + 1); ++s) {
-            const std::uint32_t k = start[s + 1];
-            start[s + 1] = run + k;
-            run += k;
+        for (std::uint64_t p : in[c]) __atomic_fetch_add(&start[(p >> 32) + 1], 1u, __ATOMIC_RELAXED);
+    }
+    for (std::size_t i = 1; i <= n; ++i) start_[i] += start_[i - 1];
+    next_.resize(start_[n]);
+    std::vector<std::uint32_t> place(start_.begin(), start_.end() - 1);
+    std::uint32_t* at = place.data();
+    std::uint32_t* next = next_.data();
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(in, at, next, chunks)
+    for (std::size_t c = 0; c < chunks; ++c) {
+        for (std::uint64_t p : in[c]) {
+            next[__atomic_fetch_add(&at[p >> 32], 1u, __ATOMIC_RELAXED)] = static_cast<std::uint32_t>(p);
         }
-        std::copy(in[c].begin(), in[c].end(), next + at[c]);
+    }
+    const std::size_t blocks = task_count(n, kBlock);
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(start, next, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            std::sort(next + start[i], next + start[i + 1]);
+        }
     }
     counts_.pairs = next_.size();
 }
@@ -308,9 +312,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
     const double reach = 2 * skin_ + 2 * all.shift;
     all.bounds.ext += reach;
     grid.build(infos, items, all.bounds);
-    order_.resize(items.size());
-    start_.resize(items.size() + 1);
-    std::vector<std::vector<std::uint32_t>> found(task_count(items.size(), kBlock));
+    std::vector<std::vector<std::uint64_t>> found(task_count(items.size(), kBlock));
     find_pairs(grid, reach, found);
     join(found);
     owner_ = owner;
@@ -326,19 +328,19 @@ void NeighbourList::others(const GeomTable& infos, std::vector<std::uint32_t>& o
     }
 }
 
-void NeighbourList::pairs(const PairInputs& in, std::vector<Lane>& lanes) const {
-    const std::size_t n = order_.size();
-    const std::size_t blocks = task_count(n, kBlock);
-    const std::uint32_t* order = order_.data();
+std::size_t NeighbourList::blocks() const { return task_count(n_, kBlock); }
+
+void NeighbourList::pairs(const PairInputs& in, Lane* lane) const {
+    const std::size_t n = n_;
+    const std::size_t blocks = this->blocks();
     const std::uint32_t* start = start_.data();
     const std::uint32_t* next = next_.data();
     const PairInputs* pin = &in;
-    Lane* lane = lanes.data();
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(pin, order, start, next, lane, n, blocks)
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(pin, start, next, lane, n, blocks)
     for (std::size_t b = 0; b < blocks; ++b) {
-        Lane& l = lane[thread_index()];
+        Lane& l = lane[b];
         const double t0 = now_seconds();
-        list_block(*pin, order, start, next, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), l);
+        list_block(*pin, start, next, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), l);
         l.narrow += now_seconds() - t0;
     }
 }

@@ -11,9 +11,8 @@
 // The other geoms (planes, boxes, geoms outside the grid's size) are tested
 // against every sphere and each other on every call, as the grid's big list.
 // Reference centres are floats (the error of rounding them is measured at the
-// build and added to the skin), radii rounded up. Lists follow the grid's
-// order of the spheres, so that the build needs no sort.
-// Trade-off: about 36 bytes a sphere kept between calls and a rebuild whenever
+// build and added to the skin), radii rounded up.
+// Trade-off: about 32 bytes a sphere kept between calls and a rebuild whenever
 // one sphere has moved the skin's length; a scene whose spheres all fly apart
 // fast rebuilds every call and then falls back to the grid for a while.
 #pragma once
@@ -43,9 +42,12 @@ public:
     bool build(const void* owner, const GeomTable& infos, CellGrid& grid);
     // The enabled geoms outside the list, by table index.
     void others(const GeomTable& infos, std::vector<std::uint32_t>& out) const;
+    // The table's entries in blocks of consecutive indices, one task each.
+    std::size_t blocks() const;
     // The list's pairs and each sphere against the big entries of `in`, in
-    // tasks, into lanes[thread] (runs as the grid's narrowphase writes them).
-    void pairs(const PairInputs& in, std::vector<Lane>& lanes) const;
+    // tasks, block b into lane[b] (runs as the grid's narrowphase writes
+    // them), so that the runs of World's spaces arrive in canonical order.
+    void pairs(const PairInputs& in, Lane* lane) const;
 
     struct Counts {
         std::size_t builds = 0, uses = 0, declined = 0;
@@ -65,17 +67,16 @@ private:
     void decline();
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
     void list_members(const GeomView& t, std::vector<Part>& parts, std::vector<std::uint32_t>& items);
-    void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint32_t>>& found);
-    void join(const std::vector<std::vector<std::uint32_t>>& found);
+    void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const;
+    void join(const std::vector<std::vector<std::uint64_t>>& found);
 
     const void* owner_ = nullptr;
     std::size_t n_ = 0;
     double skin_ = 0;
     std::vector<float> ref_;               // x, y, z, radius (rounded up) per table index; radius < 0: not listed
-    // The spheres in the grid's order, each with its list: sphere s is table
-    // entry order_[s], its list next_[start_[s] .. start_[s + 1]) (table
-    // entries later in the grid's half stencil).
-    std::vector<std::uint32_t> order_, start_, next_;
+    // The list of table entry a: next_[start_[a] .. start_[a + 1]), the later
+    // table entries it may touch, in increasing order.
+    std::vector<std::uint32_t> start_, next_;
     std::vector<std::uint32_t> outside_;   // table indices not listed
     std::size_t lived_ = 0;                // calls the current list served
     std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
