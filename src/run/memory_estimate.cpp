@@ -20,6 +20,11 @@
 //   ODE's hash space allocates a bit per ordered pair of geoms, geoms^2 / 8 bytes.
 //   --collide ode-sap / grid with --solver ode: 3 to 10 % below grid/parallel.
 //   --trajectory: 24 bytes per body per frame (8,000 bodies, 101 frames: +17 MB).
+//   The grid's neighbour list (omp/neighbour_list.hpp), added since, keeps
+//   about 32 bytes a sphere (a float reference centre and radius, a list start
+//   and about three 4-byte entries); the peak did not move with it (10^6, 5
+//   steps: 1,910 bytes per catom with and without it on one thread, 1,911
+//   against 1,931 on two; analysis/results/vm-amd-epyc-2c/neighbour-list).
 // The estimate for N = 200,000 (grid, parallel) is 0.41 GB against 0.39 GB
 // measured; at N = 10^6, 2.0 GB against 1.98 GB (5 steps, analysis/results/scale.csv).
 #include "run/memory_estimate.hpp"
