@@ -462,6 +462,13 @@ void GridBackend::collide(dSpaceID space, int max_contacts, ContactBuffer& out) 
     times_.add("merge", t.merge);
 }
 
+std::vector<std::pair<std::string, std::int64_t>> GridBackend::counts() const {
+    const CollideEngine::ListCounts c = engine_.list_counts();
+    return {{"neighbour_list_builds", static_cast<std::int64_t>(c.builds)},
+            {"neighbour_list_uses", static_cast<std::int64_t>(c.uses)},
+            {"neighbour_list_declined", static_cast<std::int64_t>(c.declined)}};
+}
+
 void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out) {
     Impl& m = *impl_;
     const int team = m.team_for(space);

@@ -113,6 +113,9 @@ public:
     // refresh (reading the geoms), broadphase (split, grid, candidates),
     // narrowphase (exact tests, dCollide, deferred pairs), merge.
     const Substages* substages() const override { return &times_; }
+    // The neighbour list's builds, the calls it served without a build, and
+    // the calls it declined (a space of many other geoms).
+    std::vector<std::pair<std::string, std::int64_t>> counts() const override;
 
 private:
     bool list_;

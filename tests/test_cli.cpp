@@ -204,6 +204,24 @@ TEST_F(Cli, StagesRunFollowTheScene) {
     EXPECT_EQ(magnetic.at("stages_run").at("forces").at("ran"), true);
 }
 
+// The grid's neighbour list is built and then serves calls; without it (or
+// with ODE's space) there is nothing to count, and the hash is the same.
+TEST_F(Cli, ReportCountsTheNeighbourListsWork) {
+    const nlohmann::json j = report(kTennis, " --collide grid");
+    const auto& c = j.at("collide_counts");
+    const auto builds = c.at("neighbour_list_builds").get<std::int64_t>();
+    const auto uses = c.at("neighbour_list_uses").get<std::int64_t>();
+    EXPECT_GE(builds, 1);
+    EXPECT_GE(uses, 1);
+    EXPECT_LE(builds + uses, j.at("steps").get<std::int64_t>()) << "one collision a step";
+    EXPECT_EQ(c.at("neighbour_list_declined").get<std::int64_t>(), 0);
+    const nlohmann::json off = report(kTennis, " --collide grid-nolist");
+    EXPECT_EQ(off.at("collide_counts").at("neighbour_list_builds").get<std::int64_t>(), 0);
+    EXPECT_EQ(off.at("collide_counts").at("neighbour_list_uses").get<std::int64_t>(), 0);
+    EXPECT_EQ(off.at("state_hash"), j.at("state_hash"));
+    EXPECT_TRUE(report(kTennis, " --collide ode-hash").at("collide_counts").empty());
+}
+
 TEST_F(Cli, ReportAndSummaryHaveTheSubstagesOfGridAndProjectSolver) {
     const nlohmann::json j = report(kTennis, " --collide grid --solver parallel");
     const std::map<std::string, std::vector<std::string>> expect = {

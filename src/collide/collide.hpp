@@ -59,6 +59,9 @@ public:
     virtual void set_sphere_bodies(const SphereBodies* /*spheres*/) {}
     // Seconds spent in the backend's substages so far, or null.
     virtual const Substages* substages() const { return nullptr; }
+    // Counts the backend keeps over the run (name, count), for the run report;
+    // every process of a run gives the same names in the same order.
+    virtual std::vector<std::pair<std::string, std::int64_t>> counts() const { return {}; }
     // A pool for the per-call tables, shared with stages that run at other
     // times of the step (util/scratch_pool.hpp).
     virtual void set_scratch(ScratchPool* /*pool*/) {}

@@ -176,6 +176,9 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["stage_ranks"] = ranks;
     r["stages_run"] = ran;
     r["substages"] = substages_json(domain, [&](Stage s) { return p.substages(s); });
+    nlohmann::json counts = nlohmann::json::object();
+    for (const auto& [name, n] : p.backend().counts()) counts[name] = domain.sum(n);  // over ranks
+    r["collide_counts"] = counts;
     r["first_step"] = first_step_json(domain, p);
     const auto contacts = domain.sum(static_cast<std::int64_t>(p.totals().contacts));
     // The totals cover the whole run, a restarted one's included.
@@ -212,6 +215,11 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
            << (wall > 0 ? 100.0 * s / wall : 0.0) << "%  " << std::setprecision(3) << info["why"].get<std::string>()
            << "\n";
         print_substages(os, r, static_cast<Stage>(k), wall);
+    }
+    if (r.contains("collide_counts") && r["collide_counts"].contains("neighbour_list_builds")) {
+        const auto& c = r["collide_counts"];
+        os << "  neighbour list: built " << c["neighbour_list_builds"].get<std::int64_t>() << " times, served "
+           << c["neighbour_list_uses"].get<std::int64_t>() << " more calls\n";
     }
     const auto& d = r["diagnostics"];
     os << "  wall " << wall << " s, " << r["ms_per_step"].get<double>() << " ms/step, "
