@@ -1,8 +1,9 @@
 // The neighbour list of neighbour_list.hpp: the check that it still covers the
 // spheres, its build from the grid's half stencil, and the pass over its pairs.
-// Trade-off: the build's list is assembled serially (a counting sort over a few
-// pairs a sphere); it runs once in many calls, while the check and the pass,
-// which run every call, are tasks.
+// Trade-off: the build places each pair with an atomic increment, in whatever
+// order the tasks run, and then sorts every list: a little more work than a
+// serial counting sort, but all of it in tasks, and the lists come out the
+// same for any thread count.
 #include "neighbour_list.hpp"
 #include "task_split.hpp"
 #include "util/substages.hpp"
@@ -196,7 +197,7 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
 
 // The plain spheres (items, for the grid) and the other geoms (outside_), in
 // table order, block by block in tasks.
-void NeighbourList::list_members(const GeomView& t, std::vector<Part>& parts, std::vector<std::uint32_t>& items) {
+void NeighbourList::list_members(std::vector<Part>& parts, std::vector<std::uint32_t>& items) {
     std::size_t listed = 0, outside = 0;
     for (Part& p : parts) {
         const std::size_t l = p.listed, o = p.outside;
@@ -212,7 +213,6 @@ void NeighbourList::list_members(const GeomView& t, std::vector<Part>& parts, st
     const float* ref = ref_.data();
     std::uint32_t* in = items.data();
     std::uint32_t* out = outside_.data();
-    (void)t;
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(part, ref, in, out, n, blocks)
     for (std::size_t b = 0; b < blocks; ++b) {
         std::size_t l = part[b].listed, o = part[b].outside;
@@ -308,7 +308,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
         return false;
     }
     std::vector<std::uint32_t> items;
-    list_members(t, parts, items);
+    list_members(parts, items);
     const double reach = 2 * skin_ + 2 * all.shift;
     all.bounds.ext += reach;
     grid.build(infos, items, all.bounds);

@@ -33,7 +33,8 @@ public:
     // table's spheres that can touch (checked in tasks). Counts the use.
     bool covers(const void* owner, const GeomTable& infos);
     // Whether a failed check should be followed by a build: after lists that
-    // lasted no call, the grid runs for 1, 2, 4 ... 16 calls before the next.
+    // served fewer than two calls beyond their build, the grid runs alone for
+    // 1, 2, 4 ... 16 calls before the next.
     bool due();
     // Builds the list of `infos` for `owner` through `grid` (whose contents it
     // overwrites). False when the table does not suit (too many geoms other
@@ -54,7 +55,6 @@ public:
         std::size_t pairs = 0;  // on the list now
     };
     const Counts& counts() const { return counts_; }
-    double skin() const { return skin_; }
 
 private:
     // What the build's first pass learns of a block of the table.
@@ -66,7 +66,7 @@ private:
     bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
     void decline();
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
-    void list_members(const GeomView& t, std::vector<Part>& parts, std::vector<std::uint32_t>& items);
+    void list_members(std::vector<Part>& parts, std::vector<std::uint32_t>& items);
     void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const;
     void join(const std::vector<std::vector<std::uint64_t>>& found);
 
