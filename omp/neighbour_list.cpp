@@ -162,9 +162,15 @@ bool NeighbourList::due() {
     return true;
 }
 
+// No list: its memory is given back (a space that declines once usually
+// declines every time).
 void NeighbourList::decline() {
     owner_ = nullptr;
     n_ = 0;
+    std::vector<float>().swap(ref_);
+    std::vector<std::uint32_t>().swap(start_);
+    std::vector<std::uint32_t>().swap(next_);
+    std::vector<std::uint32_t>().swap(outside_);
     counts_.pairs = 0;
     ++counts_.declined;
     wait_ = kMaxCooldown;
