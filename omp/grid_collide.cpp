@@ -114,6 +114,11 @@ struct CollideEngine::Impl {
         return f;
     }
     Lane& lane() { return lanes[static_cast<std::size_t>(thread_index())]; }
+    // Whether `space` is the one set_geoms describes, still holding just those.
+    bool is_flat(dSpaceID space) const {
+        return space == flat_space && flat_geoms &&
+               flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+    }
 
     void start(int max, int team);
     void emit(Lane& l, std::uint32_t fa, const PrimData& pa, std::uint32_t fb, const PrimData& pb);
@@ -167,8 +172,7 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
 // first (a nested space or a pair of spaces reads its geoms here).
 void CollideEngine::Impl::read_space(dSpaceID space) {
     for (Lane& l : lanes) store_fast_runs(l, fast_source());
-    const bool flat = space == flat_space && flat_geoms &&
-                      flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+    const bool flat = is_flat(space);
     const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos, spheres) : read_space_pipelined(space, list, infos);
     if (any & kStaleAabb) refresh_stale(infos);
     if (any & kUser) use_reference = true;
@@ -210,31 +214,14 @@ void CollideEngine::Impl::split_items() {
 }
 
 void CollideEngine::Impl::list_split(std::size_t blocks) {
-    std::size_t ns = 0, nb = 0;
     small_bounds = CellBounds{};
-    for (SplitPart& p : parts) {
-        small_bounds.add(p.bounds);
-        const std::size_t s = p.small, b = p.big;
-        p.small = ns;
-        p.big = nb;
-        ns += s;
-        nb += b;
-    }
-    small.resize(ns);
-    big.resize(nb);
-    const std::size_t n = infos.size();
-    const std::uint8_t* mark = bucket.data();
-    const SplitPart* part = parts.data();
-    std::uint32_t* to_small = small.data();
-    std::uint32_t* to_big = big.data();
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(mark, part, to_small, to_big, n, blocks)
+    std::vector<std::array<std::size_t, 2>> counts(blocks);
     for (std::size_t b = 0; b < blocks; ++b) {
-        std::size_t s = part[b].small, g = part[b].big;
-        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
-            if (mark[i] == 1) to_small[s++] = static_cast<std::uint32_t>(i);
-            if (mark[i] == 2) to_big[g++] = static_cast<std::uint32_t>(i);
-        }
+        small_bounds.add(parts[b].bounds);
+        counts[b] = {parts[b].small, parts[b].big};
     }
+    const std::uint8_t* mark = bucket.data();
+    split_in_order(infos.size(), counts, [mark](std::size_t i) { return int{mark[i]}; }, small, big);
 }
 
 void CollideEngine::Impl::build_big() {
@@ -266,8 +253,7 @@ void CollideEngine::Impl::all_pairs() {
 // Whether the flat space's geoms, just read, take the neighbour list: it
 // covers them still, or it is due to be built and builds.
 bool CollideEngine::Impl::list_ready(dSpaceID space) {
-    const bool flat = use_list && space == flat_space && flat_geoms && flat_geoms->size() == infos.size();
-    if (!flat) return false;
+    if (!use_list || !is_flat(space)) return false;
     if (neighbours.covers(space, infos)) return true;
     return neighbours.due() && neighbours.build(space, infos, grid);
 }
@@ -427,9 +413,10 @@ void CollideEngine::set_sphere_bodies(const SphereBodies* spheres) { impl_->sphe
 int CollideEngine::threads() const { return impl_->team_size(); }
 const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
 void CollideEngine::set_neighbour_list(bool on) { impl_->use_list = on; }
+bool CollideEngine::neighbour_list() const { return impl_->use_list; }
 CollideEngine::ListCounts CollideEngine::list_counts() const {
     const NeighbourList::Counts& c = impl_->neighbours.counts();
-    return ListCounts{c.builds, c.uses, c.declined, c.pairs};
+    return ListCounts{c.builds, c.uses, c.declined};
 }
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {

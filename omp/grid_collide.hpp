@@ -82,8 +82,9 @@ public:
     // The flat space's neighbour list (neighbour_list.hpp): on by default;
     // off, every call runs the grid. Results are the same either way.
     void set_neighbour_list(bool on);
+    bool neighbour_list() const;
     struct ListCounts {
-        std::size_t builds = 0, uses = 0, declined = 0, pairs = 0;
+        std::size_t builds = 0, uses = 0, declined = 0;
     };
     ListCounts list_counts() const;
 
@@ -100,8 +101,8 @@ private:
 // grid): the reference the list is measured against.
 class GridBackend final : public CollideBackend {
 public:
-    explicit GridBackend(bool neighbour_list = true) : list_(neighbour_list) { engine_.set_neighbour_list(list_); }
-    std::string name() const override { return list_ ? "grid" : "grid-nolist"; }
+    explicit GridBackend(bool neighbour_list = true) { engine_.set_neighbour_list(neighbour_list); }
+    std::string name() const override { return engine_.neighbour_list() ? "grid" : "grid-nolist"; }
     SpaceKind space_kind() const override { return SpaceKind::Simple; }
     void collide(dSpaceID space, int max_contacts, ContactBuffer& out) override;
     void set_threads(int threads) override { engine_.set_threads(threads); }
@@ -118,7 +119,6 @@ public:
     std::vector<std::pair<std::string, std::int64_t>> counts() const override;
 
 private:
-    bool list_;
     CollideEngine engine_;
     Substages times_;
 };

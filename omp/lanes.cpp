@@ -142,10 +142,10 @@ const RunRef* sort_block(RunRef* first, RunRef* last) {
 // positions: a third of the merge's copy waited on the two prims).
 constexpr std::size_t kAhead = 12;
 
-void prefetch_run(const RunRef& r, const FastSource& fast) {
-    if (r.a & kStored) return;
-    __builtin_prefetch(&fast.prim(r.a));
-    __builtin_prefetch(&fast.prim(r.b));
+void prefetch_run(std::uint32_t a, std::uint32_t b, const FastSource& fast) {
+    if (a & kStored) return;
+    __builtin_prefetch(&fast.prim(a));
+    __builtin_prefetch(&fast.prim(b));
 }
 
 // A run's contacts at `to`; returns the end.
@@ -182,7 +182,7 @@ void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, cons
         const RunRef* sorted = sort_block(ref + start[b], ref + start[b + 1]);
         ContactRecord* to = dst + offset[b];
         for (std::size_t i = 0; i < n; ++i) {
-            if (i + kAhead < n) prefetch_run(sorted[i + kAhead], *src);
+            if (i + kAhead < n) prefetch_run(sorted[i + kAhead].a, sorted[i + kAhead].b, *src);
             if (i > 0 && sorted[i].lo == sorted[i - 1].lo && sorted[i].hi == sorted[i - 1].hi) rep[b] = 1;
             to = write_run(sorted[i], lane, *src, to);
         }
@@ -255,7 +255,7 @@ void write_lanes(const std::vector<Lane>& lanes, const FastSource& fast, const s
         ContactRecord* to = dst + offset[l];
         for (std::size_t i = 0; i < n; ++i) {
             const PairRun& r = runs[i];
-            if (i + kAhead < n) prefetch_run(RunRef(0, 0, 0, runs[i + kAhead].a, runs[i + kAhead].b), *src);
+            if (i + kAhead < n) prefetch_run(runs[i + kAhead].a, runs[i + kAhead].b, *src);
             to = write_run(RunRef(r.lo, r.hi, static_cast<std::uint32_t>(l), r.a, r.b), lane, *src, to);
         }
     }

@@ -171,7 +171,6 @@ void NeighbourList::decline() {
     std::vector<std::uint32_t>().swap(start_);
     std::vector<std::uint32_t>().swap(next_);
     std::vector<std::uint32_t>().swap(outside_);
-    counts_.pairs = 0;
     ++counts_.declined;
     wait_ = kMaxCooldown;
 }
@@ -203,30 +202,11 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
 
 // The plain spheres (items, for the grid) and the other geoms (outside_), in
 // table order, block by block in tasks.
-void NeighbourList::list_members(std::vector<Part>& parts, std::vector<std::uint32_t>& items) {
-    std::size_t listed = 0, outside = 0;
-    for (Part& p : parts) {
-        const std::size_t l = p.listed, o = p.outside;
-        p.listed = listed;
-        p.outside = outside;
-        listed += l;
-        outside += o;
-    }
-    items.resize(listed);
-    outside_.resize(outside);
-    const std::size_t n = n_, blocks = parts.size();
-    const Part* part = parts.data();
+void NeighbourList::list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items) {
+    std::vector<std::array<std::size_t, 2>> counts(parts.size());
+    for (std::size_t b = 0; b < parts.size(); ++b) counts[b] = {parts[b].listed, parts[b].outside};
     const float* ref = ref_.data();
-    std::uint32_t* in = items.data();
-    std::uint32_t* out = outside_.data();
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(part, ref, in, out, n, blocks)
-    for (std::size_t b = 0; b < blocks; ++b) {
-        std::size_t l = part[b].listed, o = part[b].outside;
-        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
-            if (ref[4 * i + 3] >= 0) in[l++] = static_cast<std::uint32_t>(i);
-            else out[o++] = static_cast<std::uint32_t>(i);
-        }
-    }
+    split_in_order(n_, counts, [ref](std::size_t i) { return ref[4 * i + 3] >= 0 ? 1 : 2; }, items, outside_);
 }
 
 // Pairs of sorted grid spheres within the sum of their (rounded-up) radii
@@ -288,7 +268,6 @@ void NeighbourList::join(const std::vector<std::vector<std::uint64_t>>& found) {
             std::sort(next + start[i], next + start[i + 1]);
         }
     }
-    counts_.pairs = next_.size();
 }
 
 bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& grid) {

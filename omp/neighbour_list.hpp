@@ -52,7 +52,6 @@ public:
 
     struct Counts {
         std::size_t builds = 0, uses = 0, declined = 0;
-        std::size_t pairs = 0;  // on the list now
     };
     const Counts& counts() const { return counts_; }
 
@@ -66,7 +65,7 @@ private:
     bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
     void decline();
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
-    void list_members(std::vector<Part>& parts, std::vector<std::uint32_t>& items);
+    void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
     void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const;
     void join(const std::vector<std::vector<std::uint64_t>>& found);
 
