@@ -134,12 +134,14 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
             const double t1 = now_seconds();
             seconds_[static_cast<std::size_t>(c) * stride + me] += t1 - t0;
 #pragma omp barrier
+            // The wait for this process's own threads; the exchange's wait is
+            // the other processes' pace, not a core taken from this one.
+            const double wait = now_seconds() - t1;
             if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
 #pragma omp master
                 exchange_after(c);
 #pragma omp barrier
             }
-            const double wait = now_seconds() - t1;
             total_work += t1 - t0;
             total_wait += wait;
             if (gave_up(t1 - t0, wait, total_work, total_wait)) {

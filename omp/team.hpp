@@ -8,8 +8,10 @@
 //   contact solver time their threads' work and waits at every colour
 //   barrier; when a thread waits over a millisecond and longer than it worked
 //   (and, over the sweep call so far, has waited longer than it worked: a
-//   single wait is as likely the kernel's noise), the rest of the step's sweeps run on one thread, and so do all other
-//   stages from then on. Only the solver's iterations try threads again, on a
+//   single wait is as likely the kernel's noise), the rest of the step's
+//   sweeps run on one thread, and so do all other stages from then on. On a
+//   distributed run the wait for the other processes' corrections after each
+//   colour is not counted: it is their pace, not a core taken from this one. Only the solver's iterations try threads again, on a
 //   later step (after 1, 2, 4, ... 16 steps while the sharing lasts); when a
 //   try succeeds every stage has its threads back.
 // Trade-off: a shared machine loses waits as long as the work per try, instead

@@ -1,0 +1,64 @@
+// The threaded contact solver's sharing test on a distributed run: after each
+// colour one thread exchanges corrections with the other processes while the
+// rest wait at a barrier. That wait is another process's pace, not a core
+// taken from this one, so it must not send the solver (and, after it, every
+// stage) to one thread. A stand-in exchange that takes 2 ms per colour (far
+// more than a colour's work at 1,000 catoms) must leave every step threaded.
+// Trade-off: runs alone (RUN_SERIAL): a test beside it could take a core, and
+// then a step on one thread would be the right verdict.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "domain/domain.hpp"
+#include "register.hpp"
+#include "run/pipeline.hpp"
+#include "solve/contact_solver.hpp"
+#include "team.hpp"
+#include "test_support.hpp"
+
+using namespace parode;
+
+namespace {
+
+class SlowExchange : public CorrectionExchange {
+public:
+    void plan(const std::vector<std::vector<std::uint32_t>>& /*touched*/) override {}
+    void exchange(int /*colour*/, const CorrectionView& /*fc*/) override {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        ++calls;
+    }
+    int calls = 0;
+};
+
+class SlowDomain : public Domain {
+public:
+    CorrectionExchange* corrections() override { return &exchange; }
+    SlowExchange exchange;
+};
+
+TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
+    omp::register_backends();
+    omp::set_threads(2);
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    SlowDomain domain;
+    RunOptions opt;
+    opt.collide = "grid";
+    opt.solver = "parallel";
+    opt.threads = 2;
+    opt.domain = &domain;
+    Pipeline p(sc, opt);
+    omp::set_min_parallel(0);  // every stage threaded at this size
+    int threaded = 0;
+    for (int s = 0; s < 3; ++s) {
+        p.step();
+        if (!omp::Team::instance().shared()) ++threaded;
+    }
+    omp::Team::instance().verdict(false);
+    omp::set_min_parallel(-1);
+    EXPECT_GT(domain.exchange.calls, 3 * 8 * 2) << "the exchange ran after every colour of every pass";
+    EXPECT_EQ(threaded, 3) << "steps whose sweeps kept both threads";
+}
+
+}  // namespace
