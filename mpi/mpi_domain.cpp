@@ -10,6 +10,7 @@
 #include "run/diagnostics.hpp"
 #include "run/pipeline.hpp"
 #include "scene/toml_reader.hpp"
+#include "util/parallel.hpp"
 #include "util/split_mix.hpp"
 
 namespace parode::mpi {
@@ -201,6 +202,7 @@ void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step)
             ++repartitions_;
         }
     }
+    locate_all(world);
     move_bodies(world, warm);
 }
 
@@ -253,6 +255,7 @@ void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, con
             } else {
                 world.set_ghost(local, false);
                 world.set_state(local, state);
+                world.slot(local).stamp = 0;  // moved: locate again
                 world.set_origin(local, origin);
             }
             any = true;
@@ -293,6 +296,7 @@ void MpiDomain::exchange_states(World& world) {
                 seen.push_back(1);
             } else {
                 world.set_state(local, state);
+                world.slot(local).stamp = 0;  // moved: locate again
                 seen[local] = 1;
             }
             received[from].push_back(gid);
@@ -314,6 +318,7 @@ void MpiDomain::exchange_states(World& world) {
     resolve(sent, send_to_, send_locals_);
     resolve(received, recv_from_, recv_locals_);
     index_bodies(world);
+    if (++stamp_ == 0) stamp_ = 1;  // this step's stamps lapse
 }
 
 // Cells and holders of every local body, and the partners of the solver's
@@ -335,9 +340,11 @@ void MpiDomain::index_bodies(World& world) {
 }
 
 // The body's cell, its owner and holders: cached with the body, looked up
-// only when it changed cell or the cells were repartitioned.
+// only when it changed cell or the cells were repartitioned; not even its
+// position is read when this step's locate_all found the entry current.
 const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     DomainSlot& s = world.slot(i);
+    if (s.stamp == stamp_ && s.stamp != 0 && s.epoch == epoch_) return s;
     const std::uint64_t key = cells_.key(dBodyGetPosition(world.body(i)));
     if (s.cell == key && s.epoch == epoch_) return s;
     s.cell = key;
@@ -345,6 +352,34 @@ const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     s.holders = reinterpret_cast<std::uintptr_t>(&map_.holders(key));
     s.epoch = epoch_;
     return s;
+}
+
+// Once a step, after the solver moved the bodies: every local body's cell
+// from its position, in chunks on the threads (a cache miss into ODE's body
+// record each, which three scans a step used to pay); the few bodies that
+// changed cell get their owner and holders from the map serially (its
+// lookups fill caches). Entries found current are stamped; a body whose state
+// is set later (a migrant, a ghost's update) loses its stamp, and every stamp
+// lapses when exchange_states is done (the solver moves the bodies next).
+void MpiDomain::locate_all(World& world) {
+    if (++stamp_ == 0) stamp_ = 1;
+    const std::size_t n = world.body_count();
+    moved_.resize(n);
+    std::uint8_t* moved = moved_.data();
+    const std::uint32_t stamp = stamp_, epoch = epoch_;
+    for_ranges(n, 4096, [&](std::size_t i0, std::size_t i1) {
+        for (std::size_t i = i0; i < i1; ++i) {
+            DomainSlot& s = world.slot(i);
+            const bool current = s.epoch == epoch && s.cell == cells_.key(dBodyGetPosition(world.body(i)));
+            if (current) s.stamp = stamp;
+            moved[i] = !current;
+        }
+    });
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!moved[i]) continue;
+        place(world, i);
+        world.slot(i).stamp = stamp;
+    }
 }
 
 void MpiDomain::exchange_forces(World& world) {

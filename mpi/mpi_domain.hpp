@@ -82,6 +82,7 @@ private:
     void receive_bodies(World& world, std::vector<WarmImpulse>* warm, const std::vector<std::pair<int, Bytes>>& in);
     void index_bodies(World& world);
     const DomainSlot& place(World& world, std::size_t i) const;
+    void locate_all(World& world);
     static const std::vector<int>& holders(const DomainSlot& s) {
         return *reinterpret_cast<const std::vector<int>*>(s.holders);
     }
@@ -94,6 +95,8 @@ private:
     CellMap map_;
     World* world_ = nullptr;
     std::uint32_t epoch_ = 0;                      // partitions made so far
+    std::uint32_t stamp_ = 0;                      // locate_all passes made so far
+    std::vector<std::uint8_t> moved_;              // locate_all: bodies that changed cell
     std::vector<int> send_to_, recv_from_;         // ghost partners of this step
     std::vector<std::vector<std::uint32_t>> send_locals_, recv_locals_;
     std::vector<int> nbrs_;                        // partners of the solver's exchange

@@ -45,6 +45,7 @@ struct DomainSlot {
     std::uintptr_t holders = 0;  // the domain's handle for the cell's holders
     std::int32_t owner = -1;
     std::uint32_t epoch = ~0u;   // the partition the entry belongs to
+    std::uint32_t stamp = 0;     // the domain's pass that found it current (0: none)
 };
 
 class World {
