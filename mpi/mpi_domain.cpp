@@ -264,19 +264,42 @@ void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, con
     if (any && warm) sort_impulses(*warm);
 }
 
+// The owned bodies that other processes hold (or may: a migrant not located
+// this step), with their states, in body order: found in chunks on the
+// threads, since most owned bodies are held here alone and the scan reads
+// every one; the states are read only for the few that are not.
+std::vector<MpiDomain::Outgoing> MpiDomain::outgoing(const World& world) const {
+    const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
+    std::vector<std::vector<Outgoing>> part(chunks);
+    const int me = rank();
+    loops().run(chunks, n, [&](std::size_t c) {
+        for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
+            if (world.ghost(i)) continue;
+            const DomainSlot& s = world.slot(i);
+            if (located(s)) {
+                const std::vector<int>& h = holders(s);
+                if (std::all_of(h.begin(), h.end(), [me](int r) { return r == me; })) continue;
+            }
+            part[c].push_back({static_cast<std::uint32_t>(i), world.state(i)});
+        }
+    });
+    std::vector<Outgoing> all;
+    for (const std::vector<Outgoing>& p : part) all.insert(all.end(), p.begin(), p.end());
+    return all;
+}
+
 // Owners send every body to the other holders of its cell; receivers update
 // the ghosts they have, add new ones and drop those nobody sent.
 void MpiDomain::exchange_states(World& world) {
     world_ = &world;
     std::map<int, Bytes> out;
     std::map<int, std::vector<std::uint32_t>> sent;
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (world.ghost(i)) continue;
-        for (int h : holders(place(world, i))) {
+    for (const Outgoing& o : outgoing(world)) {
+        for (int h : holders(place(world, o.local))) {
             if (h == rank()) continue;
-            put(out[h], world.gid(i));
-            put(out[h], world.state(i));
-            sent[h].push_back(world.gid(i));
+            put(out[h], world.gid(o.local));
+            put(out[h], o.state);
+            sent[h].push_back(world.gid(o.local));
         }
     }
     const auto in = comm_.sparse_exchange(out, kTagGhost);
@@ -344,7 +367,7 @@ void MpiDomain::index_bodies(World& world) {
 // position is read when this step's locate_all found the entry current.
 const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     DomainSlot& s = world.slot(i);
-    if (s.stamp == stamp_ && s.stamp != 0 && s.epoch == epoch_) return s;
+    if (located(s)) return s;
     const std::uint64_t key = cells_.key(dBodyGetPosition(world.body(i)));
     if (s.cell == key && s.epoch == epoch_) return s;
     s.cell = key;

@@ -83,6 +83,13 @@ private:
     void index_bodies(World& world);
     const DomainSlot& place(World& world, std::size_t i) const;
     void locate_all(World& world);
+    // Whether this step's locate_all found the entry current.
+    bool located(const DomainSlot& s) const { return s.stamp == stamp_ && s.stamp != 0 && s.epoch == epoch_; }
+    struct Outgoing {
+        std::uint32_t local;
+        BodyState state;
+    };
+    std::vector<Outgoing> outgoing(const World& world) const;
     static const std::vector<int>& holders(const DomainSlot& s) {
         return *reinterpret_cast<const std::vector<int>*>(s.holders);
     }
