@@ -135,10 +135,11 @@ def plot(out, path, title=""):
     for label, mode, line, free in series(out):
         cores = line.ranks * line.threads
         top = max(top, cores.max())
-        if mode != "weak":
+        if mode != "weak" and "speedup" in line:  # no 1 x 1 run: no speed-up to draw
             spread = [line.speedup - line.speedup * line.ms / line.ms_max, line.speedup * line.ms / line.ms_min - line.speedup]
             axes[0].errorbar(cores, line.speedup, yerr=spread, fmt="o-", capsize=3, label=f"{label} (over {free})")
-        axes[1].plot(cores, line.efficiency, "o-", label=f"{label} (over {free})")
+        if "efficiency" in line:
+            axes[1].plot(cores, line.efficiency, "o-", label=f"{label} (over {free})")
     axes[0].plot([1, top], [1, top], "k:", label="ideal")
     axes[1].axhline(1, color="k", ls=":", label="ideal")
     axes[0].set(xlabel="cores (ranks x threads)", ylabel="speed-up vs 1 rank x 1 thread", title="speed-up")
