@@ -51,11 +51,17 @@ std::vector<Bytes> split(const Bytes& all, const std::vector<int>& counts) {
     return out;
 }
 
-Bytes receive_probed(MPI_Message& msg, MPI_Status& st) {
+// Into `b` (resized; its capacity is reused from call to call).
+void receive_probed_into(MPI_Message& msg, MPI_Status& st, Bytes& b) {
     int n = 0;
     MPI_Get_count(&st, MPI_BYTE, &n);
-    Bytes b(static_cast<std::size_t>(n));
+    b.resize(static_cast<std::size_t>(n));
     check(MPI_Mrecv(b.data(), n, MPI_BYTE, &msg, MPI_STATUS_IGNORE), "MPI_Mrecv");
+}
+
+Bytes receive_probed(MPI_Message& msg, MPI_Status& st) {
+    Bytes b;
+    receive_probed_into(msg, st, b);
     return b;
 }
 
@@ -204,7 +210,7 @@ void Comm::exchange(const std::vector<int>& to, const std::vector<Bytes>& out, c
         MPI_Message msg;
         MPI_Status st;
         check(MPI_Mprobe(from[j], tag, MPI_COMM_WORLD, &msg, &st), "MPI_Mprobe");
-        in[j] = receive_probed(msg, st);
+        receive_probed_into(msg, st, in[j]);
     }
     check(MPI_Waitall(static_cast<int>(sends.size()), sends.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
 }

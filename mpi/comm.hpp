@@ -59,7 +59,7 @@ public:
     // here, sorted by source rank. Partners need not be known in advance.
     std::vector<std::pair<int, Bytes>> sparse_exchange(const std::map<int, Bytes>& out, int tag) const;
     // Sends out[i] to partners[i] and receives one message (any size) from
-    // each of `from`; in[j] is what from[j] sent.
+    // each of `from`; in[j] is what from[j] sent (its buffer reused).
     void exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
                   std::vector<Bytes>& in, int tag) const;
 

@@ -109,6 +109,12 @@ private:
     std::vector<int> nbrs_;                        // partners of the solver's exchange
     std::vector<int> nbr_index_;                   // rank -> index into nbrs_, or -1
     std::vector<std::vector<std::vector<std::uint32_t>>> corr_;  // colour -> neighbour -> locals
+    // The solve's exchange: per colour, whether this step's lists were sent
+    // (the first message of a colour carries the ids, the rest only the
+    // corrections), and what each neighbour sends, as locals here.
+    std::vector<std::uint8_t> corr_named_;
+    std::vector<std::vector<std::vector<std::uint32_t>>> corr_in_;  // colour -> neighbour -> locals
+    std::vector<Bytes> corr_out_, corr_recv_;  // message buffers, kept for their capacity
     std::uint64_t id_hash_ = 0;                    // sum of mixed gids of every body
     bool partitioned_ = false;                     // initial_bodies partitioned the scene's cells
     long conflicts_ = 0;                           // ghosts received for bodies owned here

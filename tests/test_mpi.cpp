@@ -37,7 +37,7 @@ TEST_F(Mpi, CheckpointOfTwoRanksRestartsOnOneTwoThree) {
 
 // The report's communication figures count the steps only; setup's
 // (partition, distribution, first exchange) are reported apart and do not
-// depend on how many steps follow.
+// depend on how many steps follow; so does the solver's exchange time.
 TEST_F(Mpi, StepCommunicationExcludesSetup) {
     const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
                                " --set catoms.count=2000";
@@ -51,6 +51,9 @@ TEST_F(Mpi, StepCommunicationExcludesSetup) {
     EXPECT_GT(none["setup_comm_bytes"].get<long>(), 2000 * 8) << "setup sends every body's state";
     EXPECT_EQ(four["setup_comm_bytes"], none["setup_comm_bytes"]);
     EXPECT_GT(four["comm_bytes"].get<long>(), 0);
+    // The solver's time exchanging corrections between colours, per process.
+    EXPECT_EQ(none["solver_exchange_seconds"]["max"].get<double>(), 0.0);
+    EXPECT_GT(four["solver_exchange_seconds"]["min"].get<double>(), 0.0);
 }
 
 // Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.

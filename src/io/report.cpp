@@ -80,6 +80,17 @@ nlohmann::json spread(const Domain& domain, double v) {
     return {{"min", domain.min(v)}, {"avg", total.value() / domain.ranks()}, {"max", domain.max(v)}};
 }
 
+// Seconds the solver spent exchanging corrections between colours (part of
+// its warm start and sweeps; distributed runs only).
+double solver_exchange_seconds(const Pipeline& p) {
+    const Substages* s = p.substages(Stage::Solve);
+    if (!s) return 0;
+    for (const auto& item : s->items()) {
+        if (item.first == "exchange") return item.second;
+    }
+    return 0;
+}
+
 // Substages reported for a stage whose backend times them, in this order.
 const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
     static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
@@ -187,6 +198,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();
     r["parallel"] = domain.report();
+    if (domain.distributed()) r["parallel"]["solver_exchange_seconds"] = spread(domain, solver_exchange_seconds(p));
     const double rss = peak_rss_bytes();
     ExactSum total_rss;
     total_rss.add(rss);

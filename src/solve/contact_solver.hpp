@@ -109,7 +109,9 @@ protected:
     std::size_t contact_count() const { return contacts_ ? contacts_->size() : 0; }
     // After colour c of a sweep (serially, between the colours).
     void exchange_after(int c) {
-        if (exchange_) exchange_->exchange(c, CorrectionView(hot_.data(), layout_.slot().data()));
+        if (!exchange_) return;
+        SubstageTimer t(times_, "exchange");  // within warm_start and sweeps: the time spent talking
+        exchange_->exchange(c, CorrectionView(hot_.data(), layout_.slot().data()));
     }
     bool exchanging() const { return exchange_ != nullptr; }
     Substages& times() { return times_; }
