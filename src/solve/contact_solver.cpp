@@ -158,19 +158,28 @@ void ContactSolver::fill_body_rows() {
     });
 }
 
-// Each contact's index into last step's impulses (both in canonical order),
-// chunk by chunk from a binary search for the chunk's first contact.
-void ContactSolver::match_previous() {
+// Each contact's owner, partner and row kind (classify), and its index into
+// last step's impulses (both in canonical order), chunk by chunk in one pass
+// over the contacts (their keys are read once a step, not twice): the
+// impulses from a binary search for the chunk's first contact on.
+void ContactSolver::classify_and_match() {
     const auto& items = contacts_->items();
-    scratch_assign(warm_, items.size(), kNone);
-    if (!scene_.solver.warm_start || previous_.empty()) return;
+    const std::size_t nc = items.size();
+    scratch_resize(owner_, nc);
+    scratch_resize(other_, nc);
+    scratch_resize(block_of_, nc);
+    scratch_assign(warm_, nc, kNone);
+    const bool match = scene_.solver.warm_start && !previous_.empty();
     auto before = [](const WarmImpulse& m, const ContactRecord& r) {
         return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
     };
-    for_ranges(items.size(), kGrain, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         if (k0 == k1) return;
-        std::size_t p = static_cast<std::size_t>(std::lower_bound(previous_.begin(), previous_.end(), items[k0], before) - previous_.begin());
-        for (std::size_t k = k0; k < k1 && p < previous_.size(); ++k) {
+        std::size_t p = match ? static_cast<std::size_t>(std::lower_bound(previous_.begin(), previous_.end(), items[k0], before) -
+                                                         previous_.begin())
+                              : previous_.size();
+        for (std::size_t k = k0; k < k1; ++k) {
+            classify(k);
             const ContactRecord& r = items[k];
             while (p < previous_.size() && before(previous_[p], r)) ++p;
             if (p < previous_.size() && previous_[p].lo == r.lo && previous_[p].hi == r.hi && previous_[p].index == r.index) {
@@ -276,12 +285,7 @@ void ContactSolver::build_phase() {
     for_ranges(nb, kGrain, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
     });
-    scratch_resize(owner_, nc);
-    scratch_resize(other_, nc);
-    scratch_resize(block_of_, nc);
-    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
-        for (std::size_t k = k0; k < k1; ++k) classify(k);
-    });
+    classify_and_match();
     std::uint32_t general = 0;  // general blocks in canonical order (rare: a serial count)
     if (!all_rows_) {           // else classify marked none: skip a serial pass over the contacts
         for (std::uint32_t& b : block_of_) {
@@ -297,7 +301,6 @@ void ContactSolver::build_phase() {
     li.owner = owner_.data();
     layout_.build(li);
     fill_body_rows();
-    match_previous();
     rows_.resize(nc);
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {

@@ -127,7 +127,7 @@ private:
     void prepare_body(std::size_t i);
     void classify(std::size_t k);
     void fill_body_rows();
-    void match_previous();
+    void classify_and_match();
     void prefetch_row(std::size_t p) const;
     void build_row(std::size_t k);
     void plan_exchange();
