@@ -3,7 +3,7 @@
 // rest wait at a barrier. That wait is another process's pace, not a core
 // taken from this one, so it must not send the solver (and, after it, every
 // stage) to one thread. A stand-in exchange that takes 2 ms per colour (far
-// more than a colour's work at 1,000 catoms) must leave every step threaded.
+// more than a colour's work at 1,000 catoms) must leave the steps threaded.
 // Trade-off: runs alone (RUN_SERIAL): a test beside it could take a core, and
 // then a step on one thread would be the right verdict.
 #include <gtest/gtest.h>
@@ -51,14 +51,18 @@ TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
     Pipeline p(sc, opt);
     omp::set_min_parallel(0);  // every stage threaded at this size
     int threaded = 0;
-    for (int s = 0; s < 3; ++s) {
+    for (int s = 0; s < 5; ++s) {
         p.step();
         if (!omp::Team::instance().shared()) ++threaded;
     }
     omp::Team::instance().verdict(false);
     omp::set_min_parallel(-1);
-    EXPECT_GT(domain.exchange.calls, 3 * 8 * 2) << "the exchange ran after every colour of every pass";
-    EXPECT_EQ(threaded, 3) << "steps whose sweeps kept both threads";
+    EXPECT_GT(domain.exchange.calls, 5 * 8 * 2) << "the exchange ran after every colour of every pass";
+    // Counting the exchange's waits sends every step to one thread (0 of 5).
+    // A virtual machine's host may still take a core for a millisecond now
+    // and then, a true verdict that costs that step and the next: one such
+    // event is allowed.
+    EXPECT_GE(threaded, 3) << "steps whose sweeps kept both threads";
 }
 
 }  // namespace
