@@ -60,6 +60,26 @@ double big_threshold(const GeomTable& infos) {
     return *std::max_element(sample.begin(), sample.end());
 }
 
+// The runs whose lower id `test` drops, out of every lane (in tasks, a lane
+// each, order kept): their contacts are then never written.
+void drop_runs(std::vector<Lane>& lanes, const GhostTest& test) {
+    Lane* lane = lanes.data();
+    const std::size_t n = lanes.size();
+    const GhostTest* t = &test;
+#pragma omp taskloop num_tasks(task_count(n, 1)) default(none) firstprivate(lane, n, t)
+    for (std::size_t j = 0; j < n; ++j) {
+        std::vector<PairRun>& runs = lane[j].runs;
+        runs.erase(std::remove_if(runs.begin(), runs.end(), [t](const PairRun& r) { return t->drops(r.lo); }),
+                   runs.end());
+    }
+}
+
+void drop_contacts(ContactBuffer& out, const GhostTest& test) {
+    auto& items = out.items();
+    items.erase(std::remove_if(items.begin(), items.end(), [&test](const ContactRecord& c) { return test.drops(c.lo); }),
+                items.end());
+}
+
 }  // namespace
 
 struct CollideEngine::Impl {
@@ -88,6 +108,7 @@ struct CollideEngine::Impl {
     MergeScratch merge;
     NeighbourList neighbours;                        // for the flat space's spheres
     bool use_list = true;
+    const GhostTest* ghost_test = nullptr;           // collide(): runs it drops are not merged
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
@@ -432,13 +453,19 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
         const double t0 = now_seconds();
         m.drain_deferred();
         const double t1 = now_seconds();
+        if (!m.use_reference && m.ghost_test) drop_runs(m.lanes, *m.ghost_test);
         if (!m.use_reference) merge_lanes(m.lanes, m.fast_source(), out, m.merge);
         m.times.deferred += t1 - t0;
         m.times.merge += now_seconds() - t1;
     }
-    if (m.use_reference) collide_space_reference(space, max_contacts, out);
+    if (m.use_reference) {
+        collide_space_reference(space, max_contacts, out);
+        if (m.ghost_test) drop_contacts(out, *m.ghost_test);
+    }
     m.split_pairs();
 }
+
+void CollideEngine::set_ghost_test(const GhostTest* test) { impl_->ghost_test = test; }
 
 void GridBackend::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
     engine_.collide(space, max_contacts, out);

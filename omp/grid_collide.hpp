@@ -62,6 +62,9 @@ public:
     // Every contact of `space`, recursing into nested spaces; equals
     // collide_space_reference(space, ...). `out` is overwritten.
     void collide(dSpaceID space, int max_contacts, ContactBuffer& out);
+    // collide() leaves out the contacts `test` drops (null: none); the pairs
+    // are found and tested as before, only their runs are not merged.
+    void set_ghost_test(const GhostTest* test);
 
     // `geom` (a geom or a space) against `space`; equals
     // collide2_reference(geom, space, ...). `out` is overwritten.
@@ -110,6 +113,10 @@ public:
     void set_sphere_bodies(const SphereBodies* spheres) override { engine_.set_sphere_bodies(spheres); }
     void set_scratch(ScratchPool* pool) override { engine_.set_scratch(pool); }
     bool reads_sphere_poses() const override { return true; }  // read_geom (geom_info.hpp)
+    bool set_ghost_test(const GhostTest* test) override {
+        engine_.set_ghost_test(test);
+        return true;
+    }
     const CollideEngine& engine() const { return engine_; }
     // refresh (reading the geoms), broadphase (split, grid, candidates),
     // narrowphase (exact tests, dCollide, deferred pairs), merge.

@@ -38,6 +38,16 @@ struct SphereBodies {
     double radius(std::uint32_t id) const { return id < body_radius.size() ? body_radius[id] : catom_radius; }
 };
 
+// Which contacts a process of a distributed run leaves to another: those whose
+// lower id (lo) is a body it holds as a ghost (that body's owner computes
+// them). Ids from `bodies` on are static geoms, never ghosts.
+struct GhostTest {
+    const void* context = nullptr;
+    bool (*ghost)(const void* context, std::uint32_t id) = nullptr;  // id < bodies, a geom held here
+    std::uint32_t bodies = 0;
+    bool drops(std::uint32_t lo) const { return lo < bodies && ghost(context, lo); }
+};
+
 // Which ODE space a backend wants World to build the scene into.
 enum class SpaceKind { Hash, SweepAndPrune, Simple };
 
@@ -69,6 +79,10 @@ public:
     // position and radius, never from ODE's cached AABB: sphere bodies may
     // then move without ODE's spaces being told every step (World::defer_moves).
     virtual bool reads_sphere_poses() const { return false; }
+    // Asks the backend to leave out of collide()'s output the contacts `test`
+    // drops (null: none), before it writes them; false when it cannot, and
+    // the caller then removes them from the output itself.
+    virtual bool set_ghost_test(const GhostTest* /*test*/) { return false; }
 };
 
 // Name -> factory. The reference backends are always present; omp/ adds more.

@@ -29,6 +29,15 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     backend_->set_sphere_bodies(world_->sphere_bodies());
+    if (domain_->distributed()) {
+        ghost_test_.context = world_.get();
+        ghost_test_.ghost = [](const void* w, std::uint32_t id) {
+            const World& world = *static_cast<const World*>(w);
+            return world.ghost(world.local_of(id));
+        };
+        ghost_test_.bodies = static_cast<std::uint32_t>(world_->global_body_count());
+        backend_drops_ghosts_ = backend_->set_ghost_test(&ghost_test_);
+    }
     world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
     solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
     solver_->set_exchange(domain_->corrections());
@@ -202,7 +211,7 @@ void Pipeline::run_forces() {
 
 void Pipeline::run_collide() {
     backend_->collide(world_->space(), scene_.solver.max_contacts, contacts_);
-    if (domain_->distributed()) drop_ghost_contacts();
+    if (domain_->distributed() && !backend_drops_ghosts_) drop_ghost_contacts();
     totals_.contacts += contacts_.size();
     contacts_of_ = world_->generation();
 }
@@ -214,10 +223,7 @@ void Pipeline::run_collide() {
 // ranks: 14 ms a step, a ninth of the collide stage, before).
 void Pipeline::drop_ghost_contacts() {
     auto& items = contacts_.items();
-    const std::size_t bodies = world_->global_body_count();
-    const auto ghost_lo = [this, bodies](const ContactRecord& c) {
-        return c.lo < bodies && world_->ghost(world_->local_of(c.lo));
-    };
+    const auto ghost_lo = [this](const ContactRecord& c) { return ghost_test_.drops(c.lo); };
     items.erase(std::remove_if(items.begin(), items.end(), ghost_lo), items.end());
 }
 
