@@ -109,6 +109,7 @@ struct CollideEngine::Impl {
     NeighbourList neighbours;                        // for the flat space's spheres
     bool use_list = true;
     const GhostTest* ghost_test = nullptr;           // collide(): runs it drops are not merged
+    std::size_t merges_in_order = 0, merges_sorted = 0;  // collide()'s merges, by path (lanes.hpp)
     PhaseTimes times;
 
     int team_size() const { return threads > 0 ? threads : default_threads(); }
@@ -437,7 +438,7 @@ void CollideEngine::set_neighbour_list(bool on) { impl_->use_list = on; }
 bool CollideEngine::neighbour_list() const { return impl_->use_list; }
 CollideEngine::ListCounts CollideEngine::list_counts() const {
     const NeighbourList::Counts& c = impl_->neighbours.counts();
-    return ListCounts{c.builds, c.uses, c.declined};
+    return ListCounts{c.builds, c.uses, c.declined, impl_->merges_in_order, impl_->merges_sorted};
 }
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
@@ -454,7 +455,7 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
         m.drain_deferred();
         const double t1 = now_seconds();
         if (!m.use_reference && m.ghost_test) drop_runs(m.lanes, *m.ghost_test);
-        if (!m.use_reference) merge_lanes(m.lanes, m.fast_source(), out, m.merge);
+        if (!m.use_reference) ++(merge_lanes(m.lanes, m.fast_source(), out, m.merge) ? m.merges_in_order : m.merges_sorted);
         m.times.deferred += t1 - t0;
         m.times.merge += now_seconds() - t1;
     }
@@ -480,7 +481,9 @@ std::vector<std::pair<std::string, std::int64_t>> GridBackend::counts() const {
     const CollideEngine::ListCounts c = engine_.list_counts();
     return {{"neighbour_list_builds", static_cast<std::int64_t>(c.builds)},
             {"neighbour_list_uses", static_cast<std::int64_t>(c.uses)},
-            {"neighbour_list_declined", static_cast<std::int64_t>(c.declined)}};
+            {"neighbour_list_declined", static_cast<std::int64_t>(c.declined)},
+            {"merges_in_order", static_cast<std::int64_t>(c.merges_in_order)},
+            {"merges_sorted", static_cast<std::int64_t>(c.merges_sorted)}};
 }
 
 void CollideEngine::collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out) {

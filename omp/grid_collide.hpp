@@ -88,6 +88,8 @@ public:
     bool neighbour_list() const;
     struct ListCounts {
         std::size_t builds = 0, uses = 0, declined = 0;
+        // collide()'s merges whose lanes arrived in canonical order, and the others.
+        std::size_t merges_in_order = 0, merges_sorted = 0;
     };
     ListCounts list_counts() const;
 

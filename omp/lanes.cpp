@@ -295,8 +295,11 @@ void store_fast_runs(Lane& lane, const FastSource& fast) {
     }
 }
 
-void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& m) {
-    if (ordered_offsets(lanes, m.contacts)) return write_lanes(lanes, fast, m.contacts, out);
+bool merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& m) {
+    if (ordered_offsets(lanes, m.contacts)) {
+        write_lanes(lanes, fast, m.contacts, out);
+        return true;
+    }
     const BlockMap map = block_map(lanes);
     count_blocks(lanes, map, m.next, m.block_contacts);
     outer_inner_offsets(lanes.size(), map.blocks, m.next, m.block_start);
@@ -305,6 +308,7 @@ void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer
     scatter_runs(lanes, map, m.next, m.refs);
     sort_and_write(lanes, fast, m.block_start, m.refs, m.contacts, m.repeated, out);
     if (std::any_of(m.repeated.begin(), m.repeated.end(), [](unsigned char r) { return r != 0; })) out.sort_canonical();
+    return false;
 }
 
 }  // namespace parode::omp

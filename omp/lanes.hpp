@@ -95,7 +95,8 @@ struct MergeScratch {
 };
 
 // All lanes' contacts in canonical order, into `out` (overwritten). Call inside
-// a parallel region (copies run as tasks) or outside it (serially).
-void merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& scratch);
+// a parallel region (copies run as tasks) or outside it (serially). Returns
+// whether the lanes held their runs in canonical order already (no sort).
+bool merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer& out, MergeScratch& scratch);
 
 }  // namespace parode::omp

@@ -63,12 +63,15 @@ std::size_t against_big(const PairInputs& in, const GridEntry& ea, const PrimDat
     return n;
 }
 
+// The table entry at walk position w (walk null: the table is in id order).
+std::uint32_t walked(const std::uint32_t* walk, std::size_t w) { return walk ? walk[w] : static_cast<std::uint32_t>(w); }
+
 // The listed pairs of a sphere at out[n]; returns the new n.
 std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimData& pa, const std::uint32_t* next,
-                        std::uint32_t k0, std::uint32_t k1, PairRun* out, std::size_t n) {
+                        const std::uint32_t* walk, std::uint32_t k0, std::uint32_t k1, PairRun* out, std::size_t n) {
     const GeomInfo* info = in.infos.info;
     for (std::uint32_t k = k0; k < k1; ++k) {
-        const std::uint32_t b = next[k];
+        const std::uint32_t b = walked(walk, next[k]);
         const GeomInfo& gb = info[b];
         dReal bb[6];
         sphere_aabb(gb.prim.p, bb);
@@ -81,26 +84,27 @@ std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimDat
     return n;
 }
 
-// The lists of table entries [i0, i1) and their big pairs, into `l`: room
+// The lists of walk positions [w0, w1) and their big pairs, into `l`: room
 // for every candidate is made once, each written and kept only if it touches
-// (no branch on an outcome close to random in a pile). In World's spaces the
-// table is in id order and each list sorted, so the runs come out in
-// canonical order unless a sphere meets a geom through dCollide.
-void list_block(const PairInputs& in, const std::uint32_t* start, const std::uint32_t* next, std::size_t i0,
-                std::size_t i1, Lane& l) {
+// (no branch on an outcome close to random in a pile). The walk is in id
+// order and each list sorted by id, so the runs come out in canonical order
+// unless a sphere meets a geom through dCollide.
+void list_block(const PairInputs& in, const std::uint32_t* start, const std::uint32_t* next, const std::uint32_t* walk,
+                std::size_t w0, std::size_t w1, Lane& l) {
     const GeomInfo* info = in.infos.info;
     std::size_t n = l.runs.size();
-    l.runs.resize(n + (start[i1] - start[i0]) + (i1 - i0) * in.nbig);
+    l.runs.resize(n + (start[w1] - start[w0]) + (w1 - w0) * in.nbig);
     PairRun* out = l.runs.data();
     std::vector<BigPair> slow;
-    for (std::size_t a = i0; a < i1; ++a) {
+    for (std::size_t w = w0; w < w1; ++w) {
+        const std::uint32_t a = walked(walk, w);
         const GeomInfo& ga = info[a];
         const std::uint32_t fa = ga.prim.flags;
         if (!listable(fa) || !(fa & kEnabled)) continue;
         GridEntry ea;
         sphere_aabb(ga.prim.p, ea.aabb);
-        ea.tag = GridTag{ga.body, static_cast<std::uint32_t>(a), fa};
-        n = list_sphere(in, ea, ga.prim, next, start[a], start[a + 1], out, n);
+        ea.tag = GridTag{ga.body, a, fa};
+        n = list_sphere(in, ea, ga.prim, next, walk, start[w], start[w + 1], out, n);
         if (in.nbig) n = against_big(in, ea, ga.prim, out, n, slow);
     }
     l.runs.resize(n);
@@ -171,6 +175,7 @@ void NeighbourList::decline() {
     std::vector<std::uint32_t>().swap(start_);
     std::vector<std::uint32_t>().swap(next_);
     std::vector<std::uint32_t>().swap(outside_);
+    std::vector<std::uint32_t>().swap(walk_);
     ++counts_.declined;
     wait_ = kMaxCooldown;
 }
@@ -182,6 +187,7 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
     Part part;  // a local, stored once: neighbouring blocks' parts share cache lines
     for (std::size_t i = i0; i < i1; ++i) {
         const PrimData& p = t.info[i].prim;
+        part.in_id_order &= i == i0 || t.info[i - 1].prim.id < p.id;
         float* r = ref_.data() + 4 * i;
         if (!listable(p.flags)) {
             r[3] = -1;
@@ -197,7 +203,28 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
         ++part.listed;
         part.bounds.add(t, i);
     }
+    if (i1 > i0) part.first_id = t.info[i0].prim.id, part.last_id = t.info[i1 - 1].prim.id;
     return part;
+}
+
+// The walk: table entries in id order, so that the pass over the lists gives
+// its runs in canonical order (the merge then writes them without sorting).
+// World's one-process space is in id order already (walk_ stays empty); a
+// rank's table holds owned bodies and ghosts in local order, sorted here once
+// a build. Returns each entry's walk position (empty: its table index).
+std::vector<std::uint32_t> NeighbourList::walk_in_id_order(const GeomView& t, bool in_order) {
+    walk_.clear();
+    if (in_order) return {};
+    std::vector<std::uint64_t> keys(n_);
+    for (std::size_t i = 0; i < n_; ++i) keys[i] = std::uint64_t{t.info[i].prim.id} << 32 | i;
+    std::sort(keys.begin(), keys.end());
+    walk_.resize(n_);
+    std::vector<std::uint32_t> pos(n_);
+    for (std::size_t w = 0; w < n_; ++w) {
+        walk_[w] = static_cast<std::uint32_t>(keys[w]);
+        pos[walk_[w]] = static_cast<std::uint32_t>(w);
+    }
+    return pos;
 }
 
 // The plain spheres (items, for the grid) and the other geoms (outside_), in
@@ -210,15 +237,16 @@ void NeighbourList::list_members(const std::vector<Part>& parts, std::vector<std
 }
 
 // Pairs of sorted grid spheres within the sum of their (rounded-up) radii
-// plus `reach`, as (lower, higher) table indices, per chunk of sorted
-// positions.
-void NeighbourList::find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const {
+// plus `reach`, as (lower, higher) walk positions (pos[table index]; null:
+// the table index itself), per chunk of sorted grid positions.
+void NeighbourList::find_pairs(const CellGrid& grid, double reach, const std::uint32_t* pos,
+                               std::vector<std::vector<std::uint64_t>>& found) const {
     const std::size_t n = grid.size();
     const std::size_t chunks = found.size();
     const CellGrid* g = &grid;
     const float* ref = ref_.data();
     std::vector<std::uint64_t>* out = found.data();
-#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(g, ref, out, n, chunks, reach)
+#pragma omp taskloop num_tasks(chunks) default(none) firstprivate(g, ref, out, n, chunks, reach, pos)
     for (std::size_t c = 0; c < chunks; ++c) {
         std::vector<std::uint64_t>& mine = out[c];
         const PrimData* prim = g->prims();
@@ -230,15 +258,15 @@ void NeighbourList::find_pairs(const CellGrid& grid, double reach, std::vector<s
                     const std::uint32_t tb = g->tag(b).info;
                     const double t = static_cast<double>(ref[4 * ta + 3]) + ref[4 * tb + 3] + reach;
                     if (!(squared_distance(prim[s].p, prim[b].p) <= t * t * (1 + 1e-9))) continue;
-                    const std::uint64_t lo = std::min(ta, tb), hi = std::max(ta, tb);
-                    mine.push_back(lo << 32 | hi);
+                    const std::uint64_t pa = pos ? pos[ta] : ta, pb = pos ? pos[tb] : tb;
+                    mine.push_back(std::min(pa, pb) << 32 | std::max(pa, pb));
                 }
             }
         }
     }
 }
 
-// The pairs as one list per lower table index, each sorted: counts and
+// The pairs as one list per lower walk position, each sorted: counts and
 // places taken with atomic increments (in tasks, in any order), then each
 // list sorted, so the result does not depend on the order.
 void NeighbourList::join(const std::vector<std::vector<std::uint64_t>>& found) {
@@ -281,7 +309,11 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(part, self, t, n, blocks)
     for (std::size_t b = 0; b < blocks; ++b) part[b] = self->reference(t, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
     Part all;
+    std::uint32_t last_id = 0;
+    bool any = false;
     for (const Part& p : parts) {
+        all.in_id_order &= p.in_id_order && (!any || p.first_id > last_id);
+        if (p.listed + p.outside > 0) last_id = p.last_id, any = true;
         all.enabled_outside += p.enabled_outside;
         all.rmax = std::max(all.rmax, p.rmax);
         all.shift = std::max(all.shift, p.shift);
@@ -297,8 +329,9 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
     const double reach = 2 * skin_ + 2 * all.shift;
     all.bounds.ext += reach;
     grid.build(infos, items, all.bounds);
+    const std::vector<std::uint32_t> pos = walk_in_id_order(t, all.in_id_order);
     std::vector<std::vector<std::uint64_t>> found(task_count(items.size(), kBlock));
-    find_pairs(grid, reach, found);
+    find_pairs(grid, reach, pos.empty() ? nullptr : pos.data(), found);
     join(found);
     owner_ = owner;
     lived_ = 0;
@@ -320,12 +353,13 @@ void NeighbourList::pairs(const PairInputs& in, Lane* lane) const {
     const std::size_t blocks = this->blocks();
     const std::uint32_t* start = start_.data();
     const std::uint32_t* next = next_.data();
+    const std::uint32_t* walk = walk_.empty() ? nullptr : walk_.data();
     const PairInputs* pin = &in;
-#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(pin, start, next, lane, n, blocks)
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(pin, start, next, walk, lane, n, blocks)
     for (std::size_t b = 0; b < blocks; ++b) {
         Lane& l = lane[b];
         const double t0 = now_seconds();
-        list_block(*pin, start, next, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), l);
+        list_block(*pin, start, next, walk, task_begin(n, blocks, b), task_begin(n, blocks, b + 1), l);
         l.narrow += now_seconds() - t0;
     }
 }

@@ -11,10 +11,13 @@
 // The other geoms (planes, boxes, geoms outside the grid's size) are tested
 // against every sphere and each other on every call, as the grid's big list.
 // Reference centres are floats (the error of rounding them is measured at the
-// build and added to the skin), radii rounded up.
-// Trade-off: about 32 bytes a sphere kept between calls and a rebuild whenever
-// one sphere has moved the skin's length; a scene whose spheres all fly apart
-// fast rebuilds every call and then falls back to the grid for a while.
+// build and added to the skin), radii rounded up. The lists are walked in id
+// order (a rank's table, owned bodies and ghosts in local order, is sorted
+// by id once a build), so their runs reach the merge in canonical order.
+// Trade-off: about 32 bytes a sphere kept between calls (36 on a rank, with
+// the walk) and a rebuild whenever one sphere has moved the skin's length; a
+// scene whose spheres all fly apart fast rebuilds every call and then falls
+// back to the grid for a while.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -47,7 +50,7 @@ public:
     std::size_t blocks() const;
     // The list's pairs and each sphere against the big entries of `in`, in
     // tasks, block b into lane[b] (runs as the grid's narrowphase writes
-    // them), so that the runs of World's spaces arrive in canonical order.
+    // them), so that the runs arrive in canonical order.
     void pairs(const PairInputs& in, Lane* lane) const;
 
     struct Counts {
@@ -61,21 +64,26 @@ private:
         std::size_t listed = 0, outside = 0, enabled_outside = 0;
         double rmax = 0, shift = 0;
         CellBounds bounds;
+        bool in_id_order = true;  // ids rise along the block
+        std::uint32_t first_id = 0, last_id = 0;
     };
     bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
     void decline();
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
     void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
-    void find_pairs(const CellGrid& grid, double reach, std::vector<std::vector<std::uint64_t>>& found) const;
+    std::vector<std::uint32_t> walk_in_id_order(const GeomView& t, bool in_order);
+    void find_pairs(const CellGrid& grid, double reach, const std::uint32_t* pos,
+                    std::vector<std::vector<std::uint64_t>>& found) const;
     void join(const std::vector<std::vector<std::uint64_t>>& found);
 
     const void* owner_ = nullptr;
     std::size_t n_ = 0;
     double skin_ = 0;
     std::vector<float> ref_;               // x, y, z, radius (rounded up) per table index; radius < 0: not listed
-    // The list of table entry a: next_[start_[a] .. start_[a + 1]), the later
-    // table entries it may touch, in increasing order.
-    std::vector<std::uint32_t> start_, next_;
+    // The walk: table entries in id order (empty: the table is in id order).
+    // The list of the entry at walk position w: next_[start_[w] .. start_[w + 1]),
+    // the walk positions after w it may touch, in increasing order.
+    std::vector<std::uint32_t> walk_, start_, next_;
     std::vector<std::uint32_t> outside_;   // table indices not listed
     std::size_t lived_ = 0;                // calls the current list served
     std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build

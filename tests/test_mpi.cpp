@@ -54,6 +54,10 @@ TEST_F(Mpi, StepCommunicationExcludesSetup) {
     // The solver's time exchanging corrections between colours, per process.
     EXPECT_EQ(none["solver_exchange_seconds"]["max"].get<double>(), 0.0);
     EXPECT_GT(four["solver_exchange_seconds"]["min"].get<double>(), 0.0);
+    // Each rank walks its neighbour list in id order, so its merges need no sort.
+    const nlohmann::json counts = report("4.json")["collide_counts"];
+    EXPECT_GE(counts["merges_in_order"].get<long>(), 2 * 4);
+    EXPECT_EQ(counts["merges_sorted"].get<long>(), 0);
 }
 
 // Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.
