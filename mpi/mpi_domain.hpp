@@ -76,6 +76,8 @@ public:
     using Domain::sum;
 
 private:
+    // Message tags, one per kind of exchange.
+    enum Tag { kTagMigrate = 11, kTagGhost = 12, kTagForce = 13, kTagCorrection = 14, kTagCheck = 15 };
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
     void partition(std::vector<CellLoad> mine);
     void move_bodies(World& world, std::vector<WarmImpulse>* warm);

@@ -1,0 +1,102 @@
+// The contact solver's exchange on a distributed run (MpiDomain as the
+// solver's CorrectionExchange, mpi_domain.hpp): after each colour of each
+// sweep, the corrections of the bodies this process's cells of that colour
+// touched go to every other holder of them. The bodies' ids travel with a
+// colour's first message of the step, the other twenty carry only the
+// corrections, copied in and out by memcpy.
+// Trade-off: each side keeps a colour's lists for the step (a few bytes a
+// shared body per colour) to save parsing and an id lookup per body in
+// every message.
+#include "mpi_domain.hpp"
+
+#include <cstring>
+#include <string>
+
+namespace parode::mpi {
+
+void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
+    corr_.resize(touched.size());
+    corr_in_.resize(touched.size());
+    corr_named_.assign(touched.size(), 0);
+    for (std::size_t c = 0; c < touched.size(); ++c) {
+        corr_[c].assign(nbrs_.size(), {});
+        corr_in_[c].assign(nbrs_.size(), {});
+        for (std::uint32_t b : touched[c]) {
+            for (int h : holders(world_->slot(b))) {
+                if (h != rank()) corr_[c][static_cast<std::size_t>(nbr_index_[static_cast<std::size_t>(h)])].push_back(b);
+            }
+        }
+    }
+}
+
+namespace {
+
+constexpr std::size_t kSix = 6 * sizeof(double);  // one body's corrections
+
+// A message of the solve's exchange: on a colour's first exchange of the step,
+// the count and ids of the bodies, then (always) their six corrections each.
+void pack_corrections(const World& world, const std::vector<std::uint32_t>& list, bool named, const CorrectionView& fc,
+                      Bytes& out) {
+    const std::size_t head = named ? sizeof(std::uint32_t) * (1 + list.size()) : 0;
+    out.resize(head + list.size() * kSix);
+    char* w = out.data();
+    if (named) {
+        const auto n = static_cast<std::uint32_t>(list.size());
+        std::memcpy(w, &n, sizeof n);
+        w += sizeof n;
+        for (std::uint32_t b : list) {
+            const std::uint32_t gid = world.gid(b);
+            std::memcpy(w, &gid, sizeof gid);
+            w += sizeof gid;
+        }
+    }
+    for (std::uint32_t b : list) {
+        std::memcpy(w, fc.of(b), kSix);
+        w += kSix;
+    }
+}
+
+}  // namespace
+
+// The ids travel once a step per colour and neighbour; the other 20 messages
+// of the colour carry only corrections, which go straight to the locals
+// learnt from the first (both sides call plan() each step and then exchange
+// the colours in the same sequence, so they agree which message is first).
+void MpiDomain::exchange(int colour, const CorrectionView& fc) {
+    const auto c = static_cast<std::size_t>(colour);
+    const bool named = !corr_named_[c];
+    corr_named_[c] = 1;
+    const std::size_t n = nbrs_.size();
+    corr_out_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) pack_corrections(*world_, corr_[c][j], named, fc, corr_out_[j]);
+    comm_.exchange(nbrs_, corr_out_, nbrs_, corr_recv_, kTagCorrection);
+    for (std::size_t j = 0; j < n; ++j) {
+        const Bytes& b = corr_recv_[j];
+        const char* r = b.data();
+        std::vector<std::uint32_t>& locals = corr_in_[c][j];
+        if (named) {
+            std::uint32_t count = 0;
+            if (b.size() >= sizeof count) std::memcpy(&count, r, sizeof count);
+            r += sizeof count;
+            locals.resize(count);
+            for (std::uint32_t& l : locals) {
+                std::uint32_t gid = 0;
+                std::memcpy(&gid, r, sizeof gid);
+                r += sizeof gid;
+                l = world_->local_of(gid);
+            }
+        }
+        const std::size_t head = static_cast<std::size_t>(r - b.data());
+        if (b.size() != head + locals.size() * kSix) {
+            throw std::runtime_error("rank " + std::to_string(rank()) + ": a correction message from rank " +
+                                     std::to_string(nbrs_[j]) + " has " + std::to_string(b.size()) +
+                                     " bytes, not the " + std::to_string(head + locals.size() * kSix) + " expected");
+        }
+        for (std::uint32_t l : locals) {
+            std::memcpy(fc.of(l), r, kSix);
+            r += kSix;
+        }
+    }
+}
+
+}  // namespace parode::mpi
