@@ -33,6 +33,30 @@ double squared_distance(const dReal* a, const dReal* b) {
     return dx * dx + dy * dy + dz * dz;
 }
 
+// `keys` sorted in tasks: blocks sorted, then runs merged pairwise, a task a
+// pair, until one is left. The keys are distinct, so the result is the same
+// on any thread count.
+void sort_in_tasks(std::vector<std::uint64_t>& keys) {
+    const std::size_t n = keys.size(), blocks = task_count(n, 8 * kBlock);
+    std::vector<std::uint64_t> spare(n);
+    std::uint64_t* a = keys.data();
+    std::uint64_t* b = spare.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(a, n, blocks)
+    for (std::size_t k = 0; k < blocks; ++k) std::sort(a + task_begin(n, blocks, k), a + task_begin(n, blocks, k + 1));
+    for (std::size_t width = 1; width < blocks; width *= 2) {
+        const std::size_t pairs = (blocks + 2 * width - 1) / (2 * width);
+#pragma omp taskloop num_tasks(pairs) default(none) firstprivate(a, b, n, blocks, width, pairs)
+        for (std::size_t p = 0; p < pairs; ++p) {
+            const std::size_t lo = task_begin(n, blocks, 2 * p * width);
+            const std::size_t mid = task_begin(n, blocks, std::min(blocks, (2 * p + 1) * width));
+            const std::size_t hi = task_begin(n, blocks, std::min(blocks, (2 * p + 2) * width));
+            std::merge(a + lo, a + mid, a + mid, a + hi, b + lo);
+        }
+        std::swap(a, b);
+    }
+    if (a != keys.data()) keys.swap(spare);
+}
+
 // A pair of a listed sphere and a big entry that is not a fast pair.
 struct BigPair {
     const PrimData* a;
@@ -215,14 +239,27 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
 std::vector<std::uint32_t> NeighbourList::walk_in_id_order(const GeomView& t, bool in_order) {
     walk_.clear();
     if (in_order) return {};
-    std::vector<std::uint64_t> keys(n_);
-    for (std::size_t i = 0; i < n_; ++i) keys[i] = std::uint64_t{t.info[i].prim.id} << 32 | i;
-    std::sort(keys.begin(), keys.end());
-    walk_.resize(n_);
-    std::vector<std::uint32_t> pos(n_);
-    for (std::size_t w = 0; w < n_; ++w) {
-        walk_[w] = static_cast<std::uint32_t>(keys[w]);
-        pos[walk_[w]] = static_cast<std::uint32_t>(w);
+    const std::size_t n = n_, blocks = task_count(n, kBlock);
+    std::vector<std::uint64_t> keys(n);
+    std::uint64_t* key = keys.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(key, t, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (std::size_t i = task_begin(n, blocks, b); i < task_begin(n, blocks, b + 1); ++i) {
+            key[i] = std::uint64_t{t.info[i].prim.id} << 32 | i;
+        }
+    }
+    sort_in_tasks(keys);
+    key = keys.data();  // the sort may hand back its other buffer
+    walk_.resize(n);
+    std::vector<std::uint32_t> pos(n);
+    std::uint32_t* walk = walk_.data();
+    std::uint32_t* at = pos.data();
+#pragma omp taskloop num_tasks(blocks) default(none) firstprivate(key, walk, at, n, blocks)
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (std::size_t w = task_begin(n, blocks, b); w < task_begin(n, blocks, b + 1); ++w) {
+            walk[w] = static_cast<std::uint32_t>(key[w]);
+            at[walk[w]] = static_cast<std::uint32_t>(w);
+        }
     }
     return pos;
 }

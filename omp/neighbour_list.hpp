@@ -13,7 +13,8 @@
 // Reference centres are floats (the error of rounding them is measured at the
 // build and added to the skin), radii rounded up. The lists are walked in id
 // order (a rank's table, owned bodies and ghosts in local order, is sorted
-// by id once a build), so their runs reach the merge in canonical order.
+// by id once a build, in tasks), so their runs reach the merge in canonical
+// order.
 // Trade-off: about 32 bytes a sphere kept between calls (36 on a rank, with
 // the walk) and a rebuild whenever one sphere has moved the skin's length; a
 // scene whose spheres all fly apart fast rebuilds every call and then falls
