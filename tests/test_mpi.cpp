@@ -1,5 +1,5 @@
 // Distributed runs end to end: `parode run` under mpiexec on 1, 2 and 3
-// processes and 1..3 threads gives the state hash of the run without MPI
+// processes and 1..3 threads (2 x 2 among them) gives the state hash of the run without MPI
 // (with migrations and repartitions happening, invariants checked every
 // step), writes the same trajectory, snapshot and dump files, refuses scenes
 // it cannot distribute with one message, stops every process together when
@@ -14,7 +14,7 @@ namespace {
 using namespace mpi_runs;
 
 TEST_P(Ranks, SameStateHashAsOneProcess) {
-    same_hash({{GetParam(), 1, 2}, {GetParam(), 2, 1}, {GetParam(), 3, 1}});
+    same_hash({{GetParam(), 1, 2}, {GetParam(), 2, 1}, {GetParam(), 3, 1}, {GetParam(), 2, 2}});
 }
 
 INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-tennis"));
