@@ -10,6 +10,7 @@
 #include "mpi_domain.hpp"
 
 #include <cstring>
+#include <stdexcept>
 #include <string>
 
 namespace parode::mpi {
@@ -58,6 +59,12 @@ void pack_corrections(const World& world, const std::vector<std::uint32_t>& list
 
 }  // namespace
 
+void MpiDomain::bad_message(std::size_t j, std::size_t got, std::size_t expected) const {
+    throw std::runtime_error("rank " + std::to_string(rank()) + ": a correction message from rank " +
+                             std::to_string(nbrs_[j]) + " has " + std::to_string(got) + " bytes, not the " +
+                             std::to_string(expected) + " expected");
+}
+
 // The ids travel once a step per colour and neighbour; the other 20 messages
 // of the colour carry only corrections, which go straight to the locals
 // learnt from the first (both sides call plan() each step and then exchange
@@ -78,6 +85,8 @@ void MpiDomain::exchange(int colour, const CorrectionView& fc) {
             std::uint32_t count = 0;
             if (b.size() >= sizeof count) std::memcpy(&count, r, sizeof count);
             r += sizeof count;
+            const std::size_t ids_end = sizeof count * (1 + std::size_t{count});
+            if (b.size() < ids_end) bad_message(j, b.size(), ids_end);
             locals.resize(count);
             for (std::uint32_t& l : locals) {
                 std::uint32_t gid = 0;
@@ -87,11 +96,7 @@ void MpiDomain::exchange(int colour, const CorrectionView& fc) {
             }
         }
         const std::size_t head = static_cast<std::size_t>(r - b.data());
-        if (b.size() != head + locals.size() * kSix) {
-            throw std::runtime_error("rank " + std::to_string(rank()) + ": a correction message from rank " +
-                                     std::to_string(nbrs_[j]) + " has " + std::to_string(b.size()) +
-                                     " bytes, not the " + std::to_string(head + locals.size() * kSix) + " expected");
-        }
+        if (b.size() != head + locals.size() * kSix) bad_message(j, b.size(), head + locals.size() * kSix);
         for (std::uint32_t l : locals) {
             std::memcpy(fc.of(l), r, kSix);
             r += kSix;

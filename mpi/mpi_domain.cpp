@@ -340,7 +340,7 @@ void MpiDomain::exchange_states(World& world) {
     resolve(sent, send_to_, send_locals_);
     resolve(received, recv_from_, recv_locals_);
     index_bodies(world);
-    if (++stamp_ == 0) stamp_ = 1;  // this step's stamps lapse
+    next_stamp();  // this step's stamps lapse
 }
 
 // Cells and holders of every local body, and the partners of the solver's
@@ -384,7 +384,7 @@ const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
 // is set later (a migrant, a ghost's update) loses its stamp, and every stamp
 // lapses when exchange_states is done (the solver moves the bodies next).
 void MpiDomain::locate_all(World& world) {
-    if (++stamp_ == 0) stamp_ = 1;
+    next_stamp();
     const std::size_t n = world.body_count();
     moved_.resize(n);
     std::uint8_t* moved = moved_.data();

@@ -92,6 +92,12 @@ private:
         BodyState state;
     };
     std::vector<Outgoing> outgoing(const World& world) const;
+    // A new stamp (never 0): the entries of the last pass stop being located.
+    void next_stamp() {
+        if (++stamp_ == 0) stamp_ = 1;
+    }
+    // Stops the run: neighbour j's correction message is not the size expected.
+    [[noreturn]] void bad_message(std::size_t j, std::size_t got, std::size_t expected) const;
     static const std::vector<int>& holders(const DomainSlot& s) {
         return *reinterpret_cast<const std::vector<int>*>(s.holders);
     }

@@ -74,12 +74,6 @@ void drop_runs(std::vector<Lane>& lanes, const GhostTest& test) {
     }
 }
 
-void drop_contacts(ContactBuffer& out, const GhostTest& test) {
-    auto& items = out.items();
-    items.erase(std::remove_if(items.begin(), items.end(), [&test](const ContactRecord& c) { return test.drops(c.lo); }),
-                items.end());
-}
-
 }  // namespace
 
 struct CollideEngine::Impl {
@@ -461,7 +455,7 @@ void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out
     }
     if (m.use_reference) {
         collide_space_reference(space, max_contacts, out);
-        if (m.ghost_test) drop_contacts(out, *m.ghost_test);
+        if (m.ghost_test) drop_ghost_contacts(out, *m.ghost_test);
     }
     m.split_pairs();
 }

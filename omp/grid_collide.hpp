@@ -124,7 +124,8 @@ public:
     // narrowphase (exact tests, dCollide, deferred pairs), merge.
     const Substages* substages() const override { return &times_; }
     // The neighbour list's builds, the calls it served without a build, and
-    // the calls it declined (a space of many other geoms).
+    // the calls it declined (a space of many other geoms); the merges whose
+    // lanes arrived in canonical order, and those that sorted.
     std::vector<std::pair<std::string, std::int64_t>> counts() const override;
 
 private:

@@ -11,9 +11,10 @@
 //   single wait is as likely the kernel's noise), the rest of the step's
 //   sweeps run on one thread, and so do all other stages from then on. On a
 //   distributed run the wait for the other processes' corrections after each
-//   colour is not counted: it is their pace, not a core taken from this one. Only the solver's iterations try threads again, on a
-//   later step (after 1, 2, 4, ... 16 steps while the sharing lasts); when a
-//   try succeeds every stage has its threads back.
+//   colour is not counted: it is their pace, not a core taken from this one.
+//   Only the solver's iterations try threads again, on a later step (after
+//   1, 2, 4, ... 16 steps while the sharing lasts); when a try succeeds every
+//   stage has its threads back.
 // Trade-off: a shared machine loses waits as long as the work per try, instead
 // of a descheduled thread's time slice at every barrier of every stage; a
 // machine that frees up waits up to 16 steps to get its threads back.

@@ -4,6 +4,8 @@
 // Trade-off: serial and O(space) in memory as ODE is; it is the ground truth.
 #include "collide/collide.hpp"
 
+#include <algorithm>
+
 
 namespace parode {
 namespace {
@@ -49,6 +51,12 @@ void collide_internal(dSpaceID space, CallbackData* data) {
 }
 
 }  // namespace
+
+void drop_ghost_contacts(ContactBuffer& out, const GhostTest& test) {
+    auto& items = out.items();
+    items.erase(std::remove_if(items.begin(), items.end(), [&test](const ContactRecord& c) { return test.drops(c.lo); }),
+                items.end());
+}
 
 void collide_space_reference(dSpaceID space, int max_contacts, ContactBuffer& out) {
     out.clear();

@@ -48,6 +48,9 @@ struct GhostTest {
     bool drops(std::uint32_t lo) const { return lo < bodies && ghost(context, lo); }
 };
 
+// Removes from `out` the contacts `test` drops, keeping the others' order.
+void drop_ghost_contacts(ContactBuffer& out, const GhostTest& test);
+
 // Which ODE space a backend wants World to build the scene into.
 enum class SpaceKind { Hash, SweepAndPrune, Simple };
 

@@ -124,7 +124,6 @@ private:
     void run_migrate();
     void run_forces();
     void run_collide();
-    void drop_ghost_contacts();
     GhostTest ghost_test_;               // distributed runs: contacts left to other processes
     bool backend_drops_ghosts_ = false;  // the backend leaves them out itself (set_ghost_test)
     void run_joints();
