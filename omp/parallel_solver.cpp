@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <exception>
 
 #include "task_split.hpp"
 #include "team.hpp"
@@ -117,14 +118,21 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
     const std::size_t stride = static_cast<std::size_t>(team) + 1;
     const long steps = static_cast<long>(passes) * kColours;
     std::atomic<long> alone_at{steps};
-#pragma omp parallel num_threads(team) shared(alone_at)
+    std::exception_ptr failed;  // the exchange's error: every thread leaves, then it is thrown here
+#pragma omp parallel num_threads(team) shared(alone_at, failed)
     {
         double total_work = 0, total_wait = 0;
         const std::size_t me = static_cast<std::size_t>(thread_index());
         for (long k = 0; k < steps; ++k) {
             const int c = static_cast<int>(k % kColours);
             if (alone_at.load(std::memory_order_acquire) <= k) {
-                if (me == 0) finish_alone(k, steps, warm);
+                if (me == 0) {
+                    try {
+                        finish_alone(k, steps, warm);
+                    } catch (...) {
+                        failed = std::current_exception();
+                    }
+                }
                 break;
             }
             const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
@@ -139,8 +147,13 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
             const double wait = now_seconds() - t1;
             if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
 #pragma omp master
-                exchange_after(c);
+                try {
+                    exchange_after(c);
+                } catch (...) {  // an exception may not leave a parallel region
+                    failed = std::current_exception();
+                }
 #pragma omp barrier
+                if (failed) break;
             }
             total_work += t1 - t0;
             total_wait += wait;
@@ -151,6 +164,7 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
             }
         }
     }
+    if (failed) std::rethrow_exception(failed);
     return alone_at.load() < steps;
 }
 

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <stdexcept>
 #include <thread>
 
 #include "domain/domain.hpp"
@@ -26,10 +27,12 @@ class SlowExchange : public CorrectionExchange {
 public:
     void plan(const std::vector<std::vector<std::uint32_t>>& /*touched*/) override {}
     void exchange(int /*colour*/, const CorrectionView& /*fc*/) override {
+        if (calls == fail_at) throw std::runtime_error("stand-in exchange failed");
         std::this_thread::sleep_for(std::chrono::milliseconds(2));
         ++calls;
     }
     int calls = 0;
+    int fail_at = -1;  // the call that throws (-1: none)
 };
 
 class SlowDomain : public Domain {
@@ -38,17 +41,21 @@ public:
     SlowExchange exchange;
 };
 
-TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
-    omp::register_backends();
-    omp::set_threads(2);
-    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
-    SlowDomain domain;
+RunOptions two_threads(Domain& domain) {
     RunOptions opt;
     opt.collide = "grid";
     opt.solver = "parallel";
     opt.threads = 2;
     opt.domain = &domain;
-    Pipeline p(sc, opt);
+    return opt;
+}
+
+TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
+    omp::register_backends();
+    omp::set_threads(2);
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    SlowDomain domain;
+    Pipeline p(sc, two_threads(domain));
     omp::set_min_parallel(0);  // every stage threaded at this size
     int threaded = 0;
     for (int s = 0; s < 5; ++s) {
@@ -63,6 +70,24 @@ TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
     // and then, a true verdict that costs that step and the next: one such
     // event is allowed.
     EXPECT_GE(threaded, 3) << "steps whose sweeps kept both threads";
+}
+
+// An exchange that fails (an MPI error, a malformed message) between the
+// threads' colours reaches the caller as the exception it threw, after every
+// thread has left the parallel region: it may not escape the region itself,
+// which would end the process on a signal.
+TEST(Team, AnExchangeErrorInTheThreadedSweepReachesTheCaller) {
+    omp::register_backends();
+    omp::set_threads(2);
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    SlowDomain domain;
+    domain.exchange.fail_at = 20;
+    Pipeline p(sc, two_threads(domain));
+    omp::set_min_parallel(0);
+    EXPECT_THROW(p.step(), std::runtime_error);
+    omp::Team::instance().verdict(false);
+    omp::set_min_parallel(-1);
+    EXPECT_EQ(domain.exchange.calls, 20);
 }
 
 }  // namespace
