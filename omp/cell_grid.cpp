@@ -219,6 +219,12 @@ void CellGrid::build(const GeomTable& infos, const std::vector<std::uint32_t>& i
 
 void CellGrid::build(const GeomTable& infos, const std::vector<std::uint32_t>& items,
                      const CellBounds& bounds) {
+    sort(infos, items, bounds);
+    fill_entries(infos, items);
+}
+
+void CellGrid::sort(const GeomTable& infos, const std::vector<std::uint32_t>& items, const CellBounds& bounds) {
+    size_ = 0;
     choose_cells(bounds, items.empty());
     compute_keys(infos, items);
     const double ncells = static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) *
@@ -229,7 +235,6 @@ void CellGrid::build(const GeomTable& infos, const std::vector<std::uint32_t>& i
     } else {
         sort_sparse();
     }
-    fill_entries(infos, items);
 }
 
 void CellGrid::sparse_range(std::uint64_t k0, std::uint64_t k1, std::uint32_t& begin,

@@ -79,6 +79,13 @@ public:
     // The same, with the items' bounds already known.
     void build(const GeomTable& infos, const std::vector<std::uint32_t>& items,
                const CellBounds& bounds);
+    // Only the cells and the items' order in them, no entries (size() is 0
+    // afterwards): for a caller that lays out its own copy of the items.
+    void sort(const GeomTable& infos, const std::vector<std::uint32_t>& items, const CellBounds& bounds);
+    // After sort or build: the item at each sorted position, and each item's
+    // cell key (by item position).
+    const std::uint32_t* order() const { return order_.data(); }
+    std::uint64_t item_key(std::size_t j) const { return raw_keys_[j]; }
 
     std::size_t size() const { return size_; }
     // The sorted geoms' records.

@@ -55,9 +55,10 @@ struct Spans {
     }
 };
 
-inline Spans spans_of(const CellGrid& g, std::size_t a) {
+// The same for sorted position a in the cell of key k (after CellGrid::sort,
+// which keeps no keys by position).
+inline Spans spans_of(const CellGrid& g, std::size_t a, std::uint64_t k) {
     Spans s;
-    const std::uint64_t k = g.key(a);
     std::uint32_t b0 = 0;
     g.range(k, k + 1, b0, s.end[0]);
     s.begin[0] = static_cast<std::uint32_t>(a) + 1;
@@ -67,6 +68,8 @@ inline Spans spans_of(const CellGrid& g, std::size_t a) {
     }
     return s;
 }
+
+inline Spans spans_of(const CellGrid& g, std::size_t a) { return spans_of(g, a, g.key(a)); }
 
 // Pairs of the sorted grid geoms [a0, a1) with later grid geoms and with the
 // big list, into `lane`, timing its broadphase and narrowphase.

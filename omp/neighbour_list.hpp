@@ -1,7 +1,8 @@
 // A neighbour list with a skin (a Verlet list) over the plain spheres of
-// World's flat space, kept from one collision call to the next. Built from
-// the uniform grid (cell_grid.hpp), it holds every pair of spheres whose
-// reference centres lie within the sum of their radii plus twice the skin.
+// World's flat space, kept from one collision call to the next. Built in the
+// uniform grid's cells (cell_grid.hpp) over a compact copy of the spheres
+// (neighbour_build.cpp), it holds every pair of spheres whose reference
+// centres lie within the sum of their radii plus twice the skin.
 // While no sphere has moved the skin's length from its reference centre nor
 // grown, every pair that can touch is on the list, so a call tests only the
 // list's pairs (about three a sphere in a pile, against thirteen boxes of the
@@ -30,6 +31,19 @@
 #include "lanes.hpp"
 
 namespace parode::omp {
+
+constexpr std::size_t kListBlock = 2048;     // table entries per task
+constexpr std::size_t kListMaxCooldown = 16;  // calls the grid runs alone at most, between builds
+
+// Whether a geom with these flags goes on the list: a plain, finite sphere.
+inline bool listable(std::uint32_t f) { return (f & kSphere) && !(f & kAux) && (f & kFinite); }
+
+// An entry of a list: a walk position. Left uninitialised when the list
+// grows (the build writes every entry, on its threads).
+struct ListEntry {
+    ListEntry() {}
+    std::uint32_t w;
+};
 
 class NeighbourList {
 public:
@@ -73,9 +87,7 @@ private:
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
     void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
     std::vector<std::uint32_t> walk_in_id_order(const GeomView& t, bool in_order);
-    void find_pairs(const CellGrid& grid, double reach, const std::uint32_t* pos,
-                    std::vector<std::vector<std::uint64_t>>& found) const;
-    void join(const std::vector<std::vector<std::uint64_t>>& found);
+    void link(const CellGrid& grid, const std::vector<std::uint32_t>& items, const std::uint32_t* pos, float need);
 
     const void* owner_ = nullptr;
     std::size_t n_ = 0;
@@ -84,7 +96,8 @@ private:
     // The walk: table entries in id order (empty: the table is in id order).
     // The list of the entry at walk position w: next_[start_[w] .. start_[w + 1]),
     // the walk positions after w it may touch, in increasing order.
-    std::vector<std::uint32_t> walk_, start_, next_;
+    std::vector<std::uint32_t> walk_, start_;
+    std::vector<ListEntry> next_;
     std::vector<std::uint32_t> outside_;   // table indices not listed
     std::size_t lived_ = 0;                // calls the current list served
     std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
