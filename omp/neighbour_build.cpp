@@ -281,11 +281,12 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
         for (int k = 0; k < 3; ++k) r[k] = static_cast<float>(p.p[k]);
         r[3] = radius_up(p.p[3]);
         const double back[3] = {r[0], r[1], r[2]};
-        part.shift = std::max(part.shift, std::sqrt(squared_distance(p.p, back)));
+        part.shift = std::max(part.shift, squared_distance(p.p, back));  // squared until the block ends
         part.rmax = std::max(part.rmax, p.p[3]);
         ++part.listed;
         part.bounds.add(t, i);
     }
+    part.shift = std::sqrt(part.shift);
     if (i1 > i0) part.first_id = t.info[i0].prim.id, part.last_id = t.info[i1 - 1].prim.id;
     return part;
 }
