@@ -2,31 +2,31 @@
 // Trade-off: the constants below come from peak RSS measurements of one scene
 // family; they are re-measured when the data structures change, not derived.
 //
-// Measurements (peak RSS from /usr/bin/time -v, 2 steps, 1 thread, tennis.toml):
+// Measurements (peak RSS from /usr/bin/time -f %M, 2 steps, 1 thread, tennis.toml):
 //   parode run jobs/scenes/tennis.toml --set catoms.count=N --steps 2 -q --threads 1 (grid, parallel)
-//     N =   8,000:  31,464 kB, 11,831 contacts per step
-//     N =  64,000: 132,560 kB, 96,897 contacts per step
-//     N = 200,000: 378,536 kB, 304,918 contacts per step
+//     N =     8,000:    31,264 kB,    11,831 contacts per step
+//     N =    64,000:   138,896 kB,    96,897 contacts per step
+//     N =   200,000:   376,932 kB,   304,918 contacts per step
+//     N = 1,000,000: 1,794,404 kB, 1,532,468 contacts per step
 //   the same with --set catoms.spacing=1.2 (no catom touches another):
-//     N =   8,000:  28,676 kB,    214 contacts per step
-//     N = 200,000: 302,632 kB,  1,855 contacts per step
-//   bytes = a + b N + c contacts fits all five to 0.3 %: c = 256 bytes per
-//   contact, b = 1,461 bytes per body (of which ODE's own body and sphere
-//   records are about 1,050), a = 17.6 MB.
+//     N =     8,000:    28,584 kB,       214 contacts per step
+//     N =   200,000:   297,580 kB,     1,855 contacts per step
+//   bytes = a + b N + c contacts, least squares over all six: a = 21.0 MB,
+//   b = 1,416 bytes per body (of which ODE's own body and sphere records are
+//   about 1,050), c = 262 bytes per contact; within 0.5 % from 200,000 up,
+//   11 % high at 8,000 (the fixed part is smaller for small scenes).
 //   The prism has 1.5 contacts per catom at the start (1.2 to 1.3 later in the
-//   collapse); the estimate takes 2.
-//   magnetic-tennis.toml at N = 200,000: 912,248 kB: 190 bytes more per catom.
+//   collapse, 1.7 over the first five steps at 10^6); the estimate takes 2.
+//   magnetic-tennis.toml: 153,524 kB at N = 64,000 and 423,156 kB at 200,000,
+//   240 and 244 bytes a catom more than tennis once the contacts are
+//   accounted: the magnet pass's data, counted only when the magnets act.
 //   --collide ode-hash: 732,640 kB at N = 64,000 and 5,213,836 kB at 200,000:
 //   ODE's hash space allocates a bit per ordered pair of geoms, geoms^2 / 8 bytes.
 //   --collide ode-sap / grid with --solver ode: 3 to 10 % below grid/parallel.
 //   --trajectory: 24 bytes per body per frame (8,000 bodies, 101 frames: +17 MB).
-//   The grid's neighbour list (omp/neighbour_list.hpp), added since, keeps
-//   about 32 bytes a sphere (a float reference centre and radius, a list start
-//   and about three 4-byte entries); the peak did not move with it (10^6, 5
-//   steps: 1,910 bytes per catom with and without it on one thread, 1,911
-//   against 1,931 on two; analysis/results/vm-amd-epyc-2c/neighbour-list).
 // The estimate for N = 200,000 (grid, parallel) is 0.41 GB against 0.39 GB
-// measured; at N = 10^6, 2.0 GB against 1.98 GB (5 steps, analysis/results/scale.csv).
+// measured; at N = 10^6, 1.96 GB against 1.84 GB (2 steps) and 1.92 GB (5
+// steps, analysis/results/vm-amd-epyc-2c/list-build).
 #include "run/memory_estimate.hpp"
 
 #include <sys/resource.h>
@@ -40,11 +40,11 @@
 namespace parode {
 namespace {
 
-constexpr double kFixedBytes = 17.6e6;
-constexpr double kBytesPerBody = 1461;
-constexpr double kBytesPerContact = 256;
+constexpr double kFixedBytes = 21.0e6;
+constexpr double kBytesPerBody = 1416;
+constexpr double kBytesPerContact = 262;
 constexpr double kContactsPerBody = 2;
-constexpr double kBytesPerMagnetCatom = 190;
+constexpr double kBytesPerMagnetCatom = 242;
 constexpr double kBytesPerFramePerBody = 24;   // trajectory positions
 constexpr double kBytesPerFrameHeader = 128;   // 16 doubles
 constexpr double kBytesPerDumpBody = 13 * 8;   // guard: position, quaternion, velocities
@@ -63,14 +63,13 @@ double statics_and_planes(const Scene& sc) { return static_cast<double>(sc.stati
 SceneSize scene_size(const Scene& scene) {
     SceneSize s;
     s.bodies = static_cast<double>(scene.bodies.size());
-    s.catoms = static_cast<double>(scene.catom_count() - scene.catoms.count);
     s.geoms = s.bodies + statics_and_planes(scene);
     s.contacts = s.bodies * kContactsPerBody;
     const double n = static_cast<double>(scene.catoms.count);  // the generated prism
     s.bodies += n;
-    s.catoms += n;
     s.geoms += n;
     if (n > 0) s.contacts += prism_contacts(n, scene.catoms.proto.shape.radius, scene.catoms.spacing);
+    s.magnet_catoms = scene.any_magnets() ? static_cast<double>(scene.catom_count()) : 0;
     return s;
 }
 
@@ -78,9 +77,11 @@ SceneSize scene_size(const Scene& so_far, const CatomPlan& catoms) {
     SceneSize s = scene_size(so_far);
     const double n = static_cast<double>(catoms.count);
     s.bodies += n;
-    s.catoms += n;
     s.geoms += n;
     if (n > 0) s.contacts += prism_contacts(n, catoms.radius, catoms.spacing);
+    // The magnets are read after the prism: the plan says whether they act,
+    // so every catom counts (a [magnets] off list is not subtracted).
+    s.magnet_catoms = catoms.magnets ? static_cast<double>(so_far.catom_count()) + n : 0;
     return s;
 }
 
@@ -90,7 +91,7 @@ MemoryEstimate estimate_memory(const SceneSize& size, const RunShape& run, int r
     const double r = e.ranks, p = std::max(1, run.pipelines);
     const double bodies = size.bodies / r, geoms = size.geoms / r;
     const double world = bodies * kBytesPerBody + size.contacts / r * kBytesPerContact +
-                         size.catoms / r * kBytesPerMagnetCatom;
+                         size.magnet_catoms / r * kBytesPerMagnetCatom;
     const double hash = run.collide == "ode-hash" ? geoms * geoms / 8 : 0;
     const double frames = run.record_trajectory ? static_cast<double>(run.steps / std::max(1L, run.observe_every) + 2) : 0;
     const double trajectory = frames * (bodies * kBytesPerFramePerBody + kBytesPerFrameHeader);

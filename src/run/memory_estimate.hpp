@@ -25,7 +25,7 @@ public:
 // What a run's memory grows with.
 struct SceneSize {
     double bodies = 0;    // dynamic bodies, catoms included
-    double catoms = 0;
+    double magnet_catoms = 0;  // catoms whose magnets act (the magnet pass keeps data for them)
     double geoms = 0;     // geoms in the collision space: bodies, statics, planes
     double contacts = 0;  // expected contacts at the peak
 };

@@ -334,6 +334,11 @@ CatomPlan plan_catoms(const Node& root) {
     p.count = t.integer("count", 1000, 1, 100000000);
     p.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
     p.spacing = t.number("spacing", 2 * p.radius, p.radius, limits::kMaxSize);
+    if (root.has("magnets")) {
+        const Node m = root.at("magnets");
+        m.require_table();
+        p.magnets = m.boolean("enabled", true) && m.number("strength", MagnetModel{}.strength, 0.0) != 0;
+    }
     return p;
 }
 

@@ -16,6 +16,7 @@ struct CatomPlan {
     long count = 0;  // 0: no [catoms] table
     double radius = 0.5;
     double spacing = 1.0;
+    bool magnets = false;  // [magnets] switched on with a non-zero strength
 };
 
 // Called once the scene is validated up to the catom prism, before the prism's
