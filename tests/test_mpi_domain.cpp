@@ -3,13 +3,17 @@
 // owner's cells; a body moved into the other process's cells migrates there
 // with its state bit for bit and its warm-start impulses, and the old owner
 // keeps neither; the invariant check passes, and fails on every process when
-// one process claims a body it does not own.
+// one process claims a body it does not own; the solve's correction exchange
+// delivers the other's corrections and stops both processes on a message of
+// the wrong size.
 // Trade-off: a custom main brings MPI up around GoogleTest; every process
 // runs every test, and a failure on either fails the run.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "comm.hpp"
 #include "domain/cells.hpp"
@@ -152,6 +156,46 @@ TEST(MpiDomain, InvariantCheckFailsOnEveryProcess) {
         }
     }
     EXPECT_THROW(d.check_invariants(w, 7), SimulationError);
+}
+
+// The solve's correction exchange between the two processes: each receives
+// the other's corrections of the bodies both hold; and when the two disagree
+// about which message of a colour carries the ids (here one process plans
+// the step again, so it names its bodies a second time), each stops with an
+// error that names both ranks and the sizes, instead of reading past a
+// message or applying the wrong bytes.
+TEST(MpiDomain, CorrectionMessagesOfTheWrongSizeStopBothProcesses) {
+    SlabDomain slab_run(false);
+    mpi::MpiDomain& d = slab_run.d;
+    World& w = slab_run.w;
+    const int other = 1 - d.rank();
+    std::vector<BodyRow> rows(w.body_count());
+    std::vector<std::uint32_t> slot(w.body_count());
+    std::vector<std::vector<std::uint32_t>> touched(1);
+    for (std::uint32_t i = 0; i < w.body_count(); ++i) {
+        slot[i] = i;
+        touched[0].push_back(i);
+        for (int k = 0; k < 6; ++k) rows[i].fc[k] = w.gid(i) + 0.1 * (d.rank() + 1) + k;
+    }
+    const CorrectionView fc(rows.data(), slot.data());
+    d.plan(touched);
+    d.exchange(0, fc);
+    std::int64_t shared = 0;
+    for (std::uint32_t i = 0; i < w.body_count(); ++i) {
+        if (rows[i].fc[0] == w.gid(i) + 0.1 * (other + 1)) ++shared;
+    }
+    g_comm->sum(&shared, 1);
+    ASSERT_GT(shared, 0) << "the processes share bodies and exchanged their corrections";
+    if (d.rank() == 1) d.plan(touched);  // rank 1 names its bodies again; rank 0 does not expect it
+    try {
+        d.exchange(0, fc);
+        FAIL() << "rank " << d.rank() << ": a message of the wrong size was read";
+    } catch (const std::runtime_error& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("rank " + std::to_string(d.rank()) + ": a correction message from rank " + std::to_string(other)),
+                  std::string::npos) << m;
+        EXPECT_NE(m.find(" expected"), std::string::npos) << m;
+    }
 }
 
 }  // namespace
