@@ -12,7 +12,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 ctest --preset ci "$@"
 if [ "${CI:-}" = "true" ] || [ "${PARODE_SANITIZER_TESTS:-0}" = "1" ]; then
   echo "== unit and OpenMP tests under AddressSanitizer and UBSan (preset debug)"
-  cmake --preset debug > /dev/null
+  cmake --preset debug -DPARODE_WERROR=ON > /dev/null  # warnings are errors, as in the ci preset
   cmake --build --preset debug -j"$(nproc)"
   ctest --preset debug -L 'unit|omp'
 fi
