@@ -120,20 +120,20 @@ std::uint32_t partners(const CellGrid& g, const CellSpheres& c, std::size_t a, f
     const Spans sp = spans_of(g, a, c.key[a].v);
     const std::size_t m0 = out.own.size();
     out.own.resize(m0 + sp.total());
-    std::uint32_t* o = &out.own[m0].v;
-    const std::array<float, 4>* ref = &c.ref[0].v;
-    const std::uint32_t* walk = &c.walk[0].v;
-    const float* pa = ref[a].data();
-    const std::uint32_t wa = walk[a];
+    Raw<std::uint32_t>* o = out.own.data() + m0;
+    const Raw<std::array<float, 4>>* ref = c.ref.data();
+    const Raw<std::uint32_t>* walk = c.walk.data();
+    const std::array<float, 4>& pa = ref[a].v;
+    const std::uint32_t wa = walk[a].v;
     std::uint32_t m = 0;
     for (int q = 0; q < 5; ++q) {
         for (std::uint32_t b = sp.begin[q]; b < sp.end[q]; ++b) {
-            const float* pb = ref[b].data();
+            const std::array<float, 4>& pb = ref[b].v;
             const float dx = pa[0] - pb[0], dy = pa[1] - pb[1], dz = pa[2] - pb[2];
             const float t = pa[3] + pb[3] + need;
             const bool near = dx * dx + dy * dy + dz * dz <= t * t * kFloatSlack;
-            const std::uint32_t wb = walk[b];
-            o[m] = wb;
+            const std::uint32_t wb = walk[b].v;
+            o[m].v = wb;
             m += near & (wb > wa);
             if (near & (wb < wa)) out.spilled.push_back(std::uint64_t{wb} << 32 | wa);
         }
