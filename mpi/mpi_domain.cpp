@@ -16,7 +16,6 @@
 namespace parode::mpi {
 namespace {
 
-
 template <class T>
 void put(Bytes& b, const T& v) {
     const std::size_t at = b.size();

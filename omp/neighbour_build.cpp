@@ -83,7 +83,7 @@ struct CellSpheres {
 // position, sphere after sphere in cell order, and the pairs whose other
 // sphere comes first in the walk (lower << 32 | higher walk position).
 struct Found {
-    std::vector<Raw<std::uint32_t>> own;
+    std::vector<ListEntry> own;
     std::vector<std::uint64_t> spilled;
 };
 
@@ -120,7 +120,7 @@ std::uint32_t partners(const CellGrid& g, const CellSpheres& c, std::size_t a, f
     const Spans sp = spans_of(g, a, c.key[a].v);
     const std::size_t m0 = out.own.size();
     out.own.resize(m0 + sp.total());
-    Raw<std::uint32_t>* o = out.own.data() + m0;
+    ListEntry* o = out.own.data() + m0;
     const Raw<std::array<float, 4>>* ref = c.ref.data();
     const Raw<std::uint32_t>* walk = c.walk.data();
     const std::array<float, 4>& pa = ref[a].v;
@@ -133,7 +133,7 @@ std::uint32_t partners(const CellGrid& g, const CellSpheres& c, std::size_t a, f
             const float t = pa[3] + pb[3] + need;
             const bool near = dx * dx + dy * dy + dz * dz <= t * t * kFloatSlack;
             const std::uint32_t wb = walk[b].v;
-            o[m].v = wb;
+            o[m].w = wb;
             m += near & (wb > wa);
             if (near & (wb < wa)) out.spilled.push_back(std::uint64_t{wb} << 32 | wa);
         }
@@ -231,11 +231,11 @@ void place_lists(const CellSpheres& cells, const std::vector<Found>& found, cons
     const Found* in = found.data();
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(c, in, own, start, next, n, blocks)
     for (std::size_t t = 0; t < blocks; ++t) {
-        const Raw<std::uint32_t>* from = in[t].own.data();
+        const ListEntry* from = in[t].own.data();
         for (std::size_t s = task_begin(n, blocks, t); s < task_begin(n, blocks, t + 1); ++s) {
             const std::uint32_t w = c->walk[s].v, m = own[w];
             ListEntry* to = next + start[w];
-            for (std::uint32_t q = 0; q < m; ++q) to[q].w = from[q].v;
+            std::copy(from, from + m, to);
             if (!std::is_sorted(to, to + m, before)) sort_list(to, to + m);
             from += m;
         }

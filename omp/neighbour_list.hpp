@@ -11,8 +11,10 @@
 // the grid, hence the same contacts, bit for bit, after the canonical merge.
 // The other geoms (planes, boxes, geoms outside the grid's size) are tested
 // against every sphere and each other on every call, as the grid's big list.
-// Reference centres are floats (the error of rounding them is measured at the
-// build and added to the skin), radii rounded up. The lists are walked in id
+// Reference centres are floats and radii rounded up; the build tests pairs on
+// the references themselves, and widens its cells by the measured error of
+// rounding the centres (a list whose error exceeds a quarter of the skin is
+// declined). The lists are walked in id
 // order (a rank's table, owned bodies and ghosts in local order, is sorted
 // by id once a build, in tasks), so their runs reach the merge in canonical
 // order.

@@ -84,11 +84,7 @@ nlohmann::json spread(const Domain& domain, double v) {
 // its warm start and sweeps; distributed runs only).
 double solver_exchange_seconds(const Pipeline& p) {
     const Substages* s = p.substages(Stage::Solve);
-    if (!s) return 0;
-    for (const auto& item : s->items()) {
-        if (item.first == "exchange") return item.second;
-    }
-    return 0;
+    return s ? s->seconds("exchange") : 0;
 }
 
 // Substages reported for a stage whose backend times them, in this order.
@@ -108,13 +104,7 @@ nlohmann::json substages_json(const Domain& domain, Of&& of) {
         const Substages* s = of(stage);
         if (!s) continue;
         nlohmann::json j = nlohmann::json::object();
-        for (const char* name : names) {
-            double v = 0;
-            for (const auto& item : s->items()) {
-                if (item.first == name) v = item.second;
-            }
-            j[name] = domain.max(v);
-        }
+        for (const char* name : names) j[name] = domain.max(s->seconds(name));
         out[stage_name(stage)] = j;
     }
     return out;

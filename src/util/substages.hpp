@@ -25,6 +25,13 @@ public:
         items_.emplace_back(name, seconds);
     }
     const std::vector<std::pair<std::string, double>>& items() const { return items_; }
+    // The seconds timed under `name` (0 when none were).
+    double seconds(const std::string& name) const {
+        for (const auto& item : items_) {
+            if (item.first == name) return item.second;
+        }
+        return 0;
+    }
 
 private:
     std::vector<std::pair<std::string, double>> items_;
