@@ -8,6 +8,7 @@
 // path (rare: geoms scattered far apart) sorts serially.
 #include "cell_grid.hpp"
 #include "task_split.hpp"
+#include "util/scratch.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -85,7 +86,7 @@ void CellGrid::compute_keys(const GeomTable& infos,
                             const std::vector<std::uint32_t>& items) {
     // Plain pointers: a task would copy a referenced vector (firstprivate).
     const std::size_t n = items.size();
-    raw_keys_.resize(n);
+    scratch_resize(raw_keys_, n);
     const GeomView info = infos.view();
     const std::uint32_t* item = items.data();
 #pragma omp taskloop num_tasks(task_count(n, 2048))
@@ -104,9 +105,9 @@ void CellGrid::sort_dense(std::size_t ncells) {
     const std::size_t nslabs = static_cast<std::size_t>(dims_[2]);
     const std::size_t tasks = task_count(n, 2048);
     slab_pos_.assign(tasks * nslabs, 0);
-    slab_items_.resize(n);
-    order_.resize(n);
-    start_.resize(ncells + 1);
+    scratch_resize(slab_items_, n);
+    scratch_resize(order_, n);
+    scratch_resize(start_, ncells + 1);
     count_slabs(tasks, nslabs);
     outer_inner_offsets(tasks, nslabs, slab_pos_, slab_start_);
     scatter_slabs(tasks, nslabs);
@@ -193,7 +194,7 @@ void CellGrid::fill_entries(const GeomTable& infos,
     size_ = n;
     boxes_.resize(n);
     prims_.resize(n);
-    keys_.resize(n);
+    scratch_resize(keys_, n);
     GridBox* box = boxes_.data();
     const GeomView info = infos.view();
     const std::uint32_t* item = items.data();

@@ -10,6 +10,7 @@
 // lists come out the same for any thread count.
 #include "neighbour_list.hpp"
 #include "task_split.hpp"
+#include "util/scratch.hpp"
 
 #include <algorithm>
 #include <array>
@@ -92,9 +93,9 @@ CellSpheres cell_spheres(const CellGrid& grid, const std::vector<std::uint32_t>&
                          const std::uint32_t* pos) {
     const std::size_t n = items.size(), blocks = task_count(n, kListBlock);
     CellSpheres c;
-    c.ref.resize(n);
-    c.walk.resize(n);
-    c.key.resize(n);
+    scratch_resize(c.ref, n);
+    scratch_resize(c.walk, n);
+    scratch_resize(c.key, n);
     CellSpheres* out = &c;
     const CellGrid* g = &grid;
     const std::uint32_t* item = items.data();
@@ -310,7 +311,7 @@ std::vector<std::uint32_t> NeighbourList::walk_in_id_order(const GeomView& t, bo
     }
     sort_in_tasks(keys);
     key = keys.data();  // the sort may hand back its other buffer
-    walk_.resize(n);
+    scratch_resize(walk_, n);
     std::vector<std::uint32_t> pos(n);
     std::uint32_t* walk = walk_.data();
     std::uint32_t* at = pos.data();
@@ -339,19 +340,20 @@ void NeighbourList::link(const CellGrid& grid, const std::vector<std::uint32_t>&
                          float need) {
     const CellSpheres cells = cell_spheres(grid, items, ref_.data(), pos);
     std::vector<Found> found(task_count(items.size(), kListBlock));
-    std::vector<std::uint32_t> own(n_, 0);
+    std::vector<std::uint32_t> own;
+    scratch_assign(own, n_, 0u);
     find_pairs(grid, cells, need, found, own.data());
     const std::vector<std::uint64_t> spilled = spilled_pairs(found);
-    start_.resize(n_ + 1);
+    scratch_resize(start_, n_ + 1);
     list_starts(spilled, own.data(), n_, start_.data());
-    next_.resize(start_[n_]);
+    scratch_resize(next_, start_[n_]);
     place_lists(cells, found, spilled, own.data(), start_.data(), next_.data());
 }
 
 bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& grid) {
     const GeomView t = infos.view();
     n_ = infos.size();
-    ref_.resize(4 * n_);
+    scratch_resize(ref_, 4 * n_);
     const std::size_t n = n_, blocks = task_count(n, kListBlock);
     std::vector<Part> parts(blocks);
     Part* part = parts.data();

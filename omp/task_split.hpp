@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "util/parallel.hpp"  // outer_inner_offsets, the prefix the taskloops combine by
+#include "util/scratch.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -60,8 +61,8 @@ void split_in_order(std::size_t n, const std::vector<std::array<std::size_t, 2>>
         total[0] += counts[b][0];
         total[1] += counts[b][1];
     }
-    first.resize(total[0]);
-    second.resize(total[1]);
+    scratch_resize(first, total[0]);  // every element is written below
+    scratch_resize(second, total[1]);
     const std::array<std::size_t, 2>* start = starts.data();
     std::uint32_t* to_first = first.data();
     std::uint32_t* to_second = second.data();
