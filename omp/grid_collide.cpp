@@ -430,6 +430,8 @@ int CollideEngine::threads() const { return impl_->team_size(); }
 const CollideEngine::PhaseTimes& CollideEngine::last_phase_times() const { return impl_->times; }
 void CollideEngine::set_neighbour_list(bool on) { impl_->use_list = on; }
 bool CollideEngine::neighbour_list() const { return impl_->use_list; }
+std::uint64_t CollideEngine::list_digest() const { return impl_->neighbours.digest(); }
+
 CollideEngine::ListCounts CollideEngine::list_counts() const {
     const NeighbourList::Counts& c = impl_->neighbours.counts();
     return ListCounts{c.builds, c.uses, c.declined, impl_->merges_in_order, impl_->merges_sorted};

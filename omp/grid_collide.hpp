@@ -92,6 +92,8 @@ public:
         std::size_t merges_in_order = 0, merges_sorted = 0;
     };
     ListCounts list_counts() const;
+    // NeighbourList::digest of the current list (for tests).
+    std::uint64_t list_digest() const;
 
     struct Impl;
 

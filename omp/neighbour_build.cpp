@@ -9,6 +9,7 @@
 // (a sort the few need, instead of atomic placement of every pair), so the
 // lists come out the same for any thread count.
 #include "neighbour_list.hpp"
+#include "sphere_search.hpp"
 #include "task_split.hpp"
 #include "util/scratch.hpp"
 
@@ -21,10 +22,6 @@ namespace {
 
 constexpr double kSkin = 0.1;  // skin over the largest radius
 constexpr std::size_t kMaxOutside = 64;  // enabled geoms outside the list, tested against every sphere
-// Relative slack of the build's float distance test: its rounding (a few
-// units of 2^-24 in the squared distance and the squared reach) stays far
-// inside it, so the list is a superset of the pairs the exact test needs.
-constexpr float kFloatSlack = 1 + 1e-5f;
 
 // The radius as a float no smaller than it.
 float radius_up(double r) {
@@ -62,40 +59,12 @@ void sort_in_tasks(std::vector<std::uint64_t>& keys) {
     if (a != keys.data()) keys.swap(spare);
 }
 
-// Left uninitialised when a vector of them grows: every element is written
-// before it is read.
-template <class T>
-struct Raw {
-    Raw() {}
-    T v;
-};
-
-// The listed spheres in cell order, as the build's pair search reads them:
-// reference centre and radius, walk position, cell key (28 bytes a sphere,
-// against the grid's 112-byte entry and prim).
-struct CellSpheres {
-    std::vector<Raw<std::array<float, 4>>> ref;
-    std::vector<Raw<std::uint32_t>> walk;
-    std::vector<Raw<std::uint64_t>> key;
-    std::size_t size() const { return walk.size(); }
-};
-
-// One task's share of the pairs: each sphere's partners with a later walk
-// position, sphere after sphere in cell order, and the pairs whose other
-// sphere comes first in the walk (lower << 32 | higher walk position).
-struct Found {
-    std::vector<ListEntry> own;
-    std::vector<std::uint64_t> spilled;
-};
-
 // The items of `grid` (sorted, CellGrid::sort) laid out in cell order.
 CellSpheres cell_spheres(const CellGrid& grid, const std::vector<std::uint32_t>& items, const float* ref,
                          const std::uint32_t* pos) {
     const std::size_t n = items.size(), blocks = task_count(n, kListBlock);
     CellSpheres c;
-    scratch_resize(c.ref, n);
-    scratch_resize(c.walk, n);
-    scratch_resize(c.key, n);
+    c.resize(n);
     CellSpheres* out = &c;
     const CellGrid* g = &grid;
     const std::uint32_t* item = items.data();
@@ -103,44 +72,15 @@ CellSpheres cell_spheres(const CellGrid& grid, const std::vector<std::uint32_t>&
     for (std::size_t b = 0; b < blocks; ++b) {
         for (std::size_t s = task_begin(n, blocks, b); s < task_begin(n, blocks, b + 1); ++s) {
             const std::uint32_t j = g->order()[s], i = item[j];
-            for (int k = 0; k < 4; ++k) out->ref[s].v[k] = ref[4 * i + k];
+            out->x[s].v = ref[4 * i];
+            out->y[s].v = ref[4 * i + 1];
+            out->z[s].v = ref[4 * i + 2];
+            out->r[s].v = ref[4 * i + 3];
             out->walk[s].v = pos ? pos[i] : i;
             out->key[s].v = g->item_key(j);
         }
     }
     return c;
-}
-
-// Sphere a's pairs with the spheres after it in its cell and in the half
-// stencil of forward cells (grid_pairs.hpp) whose reference centres lie
-// within the sum of the radii plus `need`: a later walk position is kept in
-// its own list (room made for every candidate, each written and kept only if
-// it passes), an earlier one set aside for that sphere's list. Returns how
-// many it kept.
-std::uint32_t partners(const CellGrid& g, const CellSpheres& c, std::size_t a, float need, Found& out) {
-    const Spans sp = spans_of(g, a, c.key[a].v);
-    const std::size_t m0 = out.own.size();
-    out.own.resize(m0 + sp.total());
-    ListEntry* o = out.own.data() + m0;
-    const Raw<std::array<float, 4>>* ref = c.ref.data();
-    const Raw<std::uint32_t>* walk = c.walk.data();
-    const std::array<float, 4>& pa = ref[a].v;
-    const std::uint32_t wa = walk[a].v;
-    std::uint32_t m = 0;
-    for (int q = 0; q < 5; ++q) {
-        for (std::uint32_t b = sp.begin[q]; b < sp.end[q]; ++b) {
-            const std::array<float, 4>& pb = ref[b].v;
-            const float dx = pa[0] - pb[0], dy = pa[1] - pb[1], dz = pa[2] - pb[2];
-            const float t = pa[3] + pb[3] + need;
-            const bool near = dx * dx + dy * dy + dz * dz <= t * t * kFloatSlack;
-            const std::uint32_t wb = walk[b].v;
-            o[m].w = wb;
-            m += near & (wb > wa);
-            if (near & (wb < wa)) out.spilled.push_back(std::uint64_t{wb} << 32 | wa);
-        }
-    }
-    out.own.resize(m0 + m);
-    return m;
 }
 
 // Every sphere's pairs, in tasks over blocks of cell positions (found[t] for
@@ -154,8 +94,12 @@ void find_pairs(const CellGrid& grid, const CellSpheres& cells, float need, std:
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(g, c, out, own, need, n, blocks)
     for (std::size_t t = 0; t < blocks; ++t) {
         const std::size_t s0 = task_begin(n, blocks, t), s1 = task_begin(n, blocks, t + 1);
-        out[t].own.reserve(4 * (s1 - s0));
-        for (std::size_t s = s0; s < s1; ++s) own[c->walk[s].v] = partners(*g, *c, s, need, out[t]);
+        out[t].own.resize(4 * (s1 - s0));
+        for (std::size_t s = s0; s < s1; ++s) {
+            if (s + 16 < n) g->prefetch_stencil(c->key[s + 16].v);
+            own[c->walk[s].v] = partners(*g, *c, s, need, out[t]);
+        }
+        out[t].own.resize(out[t].kept);
     }
 }
 

@@ -6,6 +6,7 @@
 // writes, never a branch on a near-random outcome.
 #include "neighbour_list.hpp"
 #include "task_split.hpp"
+#include "util/hash.hpp"
 #include "util/substages.hpp"
 
 #include <algorithm>
@@ -151,6 +152,13 @@ void NeighbourList::others(const GeomTable& infos, std::vector<std::uint32_t>& o
     for (std::uint32_t i : outside_) {
         if (infos[i].prim.flags & kEnabled) out.push_back(i);
     }
+}
+
+std::uint64_t NeighbourList::digest() const {
+    Fnv1a h;
+    for (std::uint32_t s : start_) h.add(s);
+    for (const ListEntry& e : next_) h.add(e.w);
+    return h.value();
 }
 
 std::size_t NeighbourList::blocks() const { return task_count(n_, kListBlock); }

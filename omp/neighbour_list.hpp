@@ -74,6 +74,8 @@ public:
         std::size_t builds = 0, uses = 0, declined = 0;
     };
     const Counts& counts() const { return counts_; }
+    // A hash of the lists (their starts and entries): equal lists, equal hashes.
+    std::uint64_t digest() const;
 
 private:
     // What the build's first pass learns of a block of the table.

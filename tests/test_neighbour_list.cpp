@@ -11,6 +11,7 @@
 
 #include "collide/collide.hpp"
 #include "grid_collide.hpp"
+#include "sphere_search.hpp"
 #include "scene/scene_file.hpp"
 #include "test_support.hpp"
 #include "world/world.hpp"
@@ -119,3 +120,39 @@ TEST(NeighbourList, ATableOutOfIdOrderIsWalkedInIdOrder) {
 }
 
 }  // namespace
+
+// The build's pair search gives the same lists with AVX2 and with the scalar
+// loop, build after build while the spheres creep (radii of three sizes, so
+// that the reach differs from pair to pair).
+TEST(NeighbourList, TheVectorSearchBuildsTheScalarSearchsLists) {
+    if (!omp::set_search_avx2(true)) GTEST_SKIP() << "no AVX2 on this machine";
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=3000"});
+    World w(sc, SpaceKind::Simple);
+    for (std::size_t i = 0; i < w.body_count(); i += 3) dGeomSphereSetRadius(w.geoms()[i], 0.9 * dGeomSphereGetRadius(w.geoms()[i]));
+    for (std::size_t i = 1; i < w.body_count(); i += 7) dGeomSphereSetRadius(w.geoms()[i], 1.05 * dGeomSphereGetRadius(w.geoms()[i]));
+    omp::CollideEngine vec, scalar;
+    for (omp::CollideEngine* e : {&vec, &scalar}) {
+        e->set_threads(2);
+        e->set_geoms(w.space(), &w.geoms());
+    }
+    std::size_t compared = 0;
+    for (int call = 0; call < 16; ++call) {
+        creep(w, call);
+        if (call == 8) {  // body 7 lands next to body 500: the list is rebuilt
+            const dReal* q = dBodyGetPosition(dGeomGetBody(w.geoms()[500]));
+            dBodySetPosition(dGeomGetBody(w.geoms()[7]), q[0] + 0.95, q[1], q[2]);
+        }
+        ContactBuffer a, b;
+        omp::set_search_avx2(true);
+        vec.collide(w.space(), 4, a);
+        omp::set_search_avx2(false);
+        scalar.collide(w.space(), 4, b);
+        omp::set_search_avx2(true);
+        ASSERT_EQ(vec.list_counts().builds, scalar.list_counts().builds) << "call " << call;
+        ASSERT_EQ(vec.list_digest(), scalar.list_digest()) << "call " << call;
+        ASSERT_EQ(contact_digest(a), contact_digest(b)) << "call " << call;
+        compared += vec.list_counts().builds > 0;
+    }
+    EXPECT_GE(vec.list_counts().builds, 2u);
+    EXPECT_GT(compared, 0u);
+}
