@@ -1,7 +1,7 @@
 // Sphere-sphere and sphere-plane contacts computed from compact copies of the
 // geoms' data, giving exactly what dCollide(lower id, higher id) writes: the same
 // arithmetic, in the same order, with ODE's own inline vector helpers, and the
-// same argument swap (normal negated, g1/g2 exchanged) when the plane comes first.
+// same argument swap (normal negated) when the plane comes first.
 // Trade-off: saves ODE's dispatch and two scattered geom reads per pair, at the
 // price of depending on ODE's formulas for these two pairs; the omp tests check
 // every contact against dCollide bit for bit. This file must be compiled without
@@ -23,17 +23,17 @@ struct PrimData {
     dReal p[4];  // sphere: centre (p[0..2]) and radius (p[3]); plane: a, b, c, d
 };
 
-// The fields ODE's colliders set alike on every contact they write.
-inline void contact_header(ContactGeom& c, dGeomID g1, dGeomID g2) {
-    c.g1 = g1;
-    c.g2 = g2;
+// The sides ODE's sphere and plane colliders write on every contact (g1 and
+// g2 are the geoms of the record's ids).
+inline void contact_header(ContactRecord& c) {
     c.side1 = -1;
     c.side2 = -1;
 }
 
 // dCollide(s1, s2) for two spheres, s1 given first. Returns the contact count
 // (0 or 1) and fills `c` as ODE does.
-inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactGeom& c) {
+inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactRecord& r) {
+    ContactPoint& c = r.geom;
     const dReal r1 = s1.p[3];
     const dReal r2 = s2.p[3];
     // The squared distance exactly as dCalcPointsDistance3 sums it; its correctly
@@ -47,7 +47,7 @@ inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactGeom& c)
     if (d2 > sum * sum * REAL(1.0000000001) && sum >= 0) return 0;
     const dReal d = dSqrt(d2);
     if (d > sum) return 0;
-    contact_header(c, s1.geom, s2.geom);
+    contact_header(r);
     if (d <= 0) {
         for (int k = 0; k < 3; ++k) c.pos[k] = s1.p[k];
         c.normal[0] = 1;
@@ -66,12 +66,13 @@ inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactGeom& c)
 
 // The sphere-plane contact as ODE's sphere/plane collider computes it with the
 // sphere first. Returns 0 or 1.
-inline int sphere_plane(const PrimData& s, const PrimData& pl, ContactGeom& c) {
+inline int sphere_plane(const PrimData& s, const PrimData& pl, ContactRecord& r) {
+    ContactPoint& c = r.geom;
     const dReal radius = s.p[3];
     const dReal k = dCalcVectorDot3(s.p, pl.p);
     const dReal depth = pl.p[3] - k + radius;
     if (!(depth >= 0)) return 0;
-    contact_header(c, s.geom, pl.geom);
+    contact_header(r);
     for (int j = 0; j < 3; ++j) c.normal[j] = pl.p[j];
     for (int j = 0; j < 3; ++j) c.pos[j] = s.p[j] - pl.p[j] * radius;
     c.depth = depth;
@@ -79,11 +80,9 @@ inline int sphere_plane(const PrimData& s, const PrimData& pl, ContactGeom& c) {
 }
 
 // dCollide(plane, sphere): the sphere-first result seen from the plane's side.
-inline int plane_sphere(const PrimData& pl, const PrimData& s, ContactGeom& c) {
-    if (sphere_plane(s, pl, c) == 0) return 0;
-    for (int j = 0; j < 3; ++j) c.normal[j] = -c.normal[j];
-    c.g1 = pl.geom;
-    c.g2 = s.geom;
+inline int plane_sphere(const PrimData& pl, const PrimData& s, ContactRecord& r) {
+    if (sphere_plane(s, pl, r) == 0) return 0;
+    for (int j = 0; j < 3; ++j) r.geom.normal[j] = -r.geom.normal[j];
     return 1;
 }
 
@@ -97,17 +96,16 @@ inline bool fast_contact(const PrimData& a, bool a_sphere, const PrimData& b, bo
     const PrimData& second = a_first ? b : a;
     const bool first_sphere = a_first ? a_sphere : b_sphere;
     const bool second_sphere = a_first ? b_sphere : a_sphere;
-    int n = 0;  // every field of out.geom is written when a contact is returned
+    int n = 0;  // every field of out is written when a contact is returned
     if (first_sphere && second_sphere) {
-        n = sphere_sphere(first, second, out.geom);
+        n = sphere_sphere(first, second, out);
     } else if (first_sphere) {
-        n = sphere_plane(first, second, out.geom);
+        n = sphere_plane(first, second, out);
     } else {
-        n = plane_sphere(first, second, out.geom);
+        n = plane_sphere(first, second, out);
     }
     out.lo = first.id;
     out.hi = second.id;
-    out.index = 0;
     return n == 1;
 }
 

@@ -27,17 +27,26 @@ void collide2(dGeomID geom, dSpaceID space, int max_contacts, ContactBuffer& out
     engine(threads).collide2(geom, space, max_contacts, out);
 }
 
-void for_each_pair(const ContactBuffer& contacts, void* data, ContactPairCallback callback) {
+void add_geoms(dGeomID g, GeomsById& out) {
+    if (!dGeomIsSpace(g)) {
+        out.add(g);
+        return;
+    }
+    const dSpaceID space = reinterpret_cast<dSpaceID>(g);
+    const int n = dSpaceGetNumGeoms(space);
+    for (int i = 0; i < n; ++i) add_geoms(dSpaceGetGeom(space, i), out);
+}
+
+void for_each_pair(const ContactBuffer& contacts, const GeomsById& geoms, void* data, ContactPairCallback callback) {
     const std::vector<ContactRecord>& items = contacts.items();
     std::vector<dContactGeom> pair;
     std::size_t i = 0;
     while (i < items.size()) {
         pair.clear();
         const std::uint32_t lo = items[i].lo, hi = items[i].hi;
-        for (; i < items.size() && items[i].lo == lo && items[i].hi == hi; ++i) {
-            pair.push_back(items[i].geom.ode());
-        }
-        callback(data, pair[0].g1, pair[0].g2, pair.data(), static_cast<int>(pair.size()));
+        const dGeomID g1 = geoms[lo], g2 = geoms[hi];
+        for (; i < items.size() && items[i].lo == lo && items[i].hi == hi; ++i) pair.push_back(items[i].ode(g1, g2));
+        callback(data, g1, g2, pair.data(), static_cast<int>(pair.size()));
     }
 }
 
@@ -45,14 +54,19 @@ void collide_space(dSpaceID space, int max_contacts, void* data, ContactPairCall
                    int threads) {
     thread_local ContactBuffer buf;
     collide(space, max_contacts, buf, threads);
-    for_each_pair(buf, data, callback);
+    GeomsById geoms;
+    add_geoms(reinterpret_cast<dGeomID>(space), geoms);
+    for_each_pair(buf, geoms, data, callback);
 }
 
 void collide_space2(dGeomID geom, dSpaceID space, int max_contacts, void* data,
                     ContactPairCallback callback, int threads) {
     thread_local ContactBuffer buf;
     collide2(geom, space, max_contacts, buf, threads);
-    for_each_pair(buf, data, callback);
+    GeomsById geoms;
+    add_geoms(geom, geoms);
+    add_geoms(reinterpret_cast<dGeomID>(space), geoms);
+    for_each_pair(buf, geoms, data, callback);
 }
 
 }  // namespace parode

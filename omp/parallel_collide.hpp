@@ -40,7 +40,11 @@ void collide_space(dSpaceID space, int max_contacts, void* data, ContactPairCall
 void collide_space2(dGeomID geom, dSpaceID space, int max_contacts, void* data,
                     ContactPairCallback callback, int threads = 0);
 
-// Hands the pairs of an already collided buffer to `callback` (canonical order).
-void for_each_pair(const ContactBuffer& contacts, void* data, ContactPairCallback callback);
+// Adds `g` to `out`, or every geom inside it if it is a space (recursively).
+void add_geoms(dGeomID g, GeomsById& out);
+
+// Hands the pairs of an already collided buffer to `callback` (canonical
+// order), the geoms looked up by id in `geoms`.
+void for_each_pair(const ContactBuffer& contacts, const GeomsById& geoms, void* data, ContactPairCallback callback);
 
 }  // namespace parode

@@ -21,7 +21,7 @@ int ContactBuffer::collide_pair(dGeomID a, dGeomID b, int max_contacts) {
     std::array<dContactGeom, kMax> tmp;
     const int n = dCollide(a, b, std::min(max_contacts, kMax), tmp.data(), sizeof(dContactGeom));
     for (int k = 0; k < n; ++k) {
-        items_.push_back(ContactRecord{ia, ib, static_cast<std::uint32_t>(k), tmp[k]});
+        items_.push_back(ContactRecord(ia, ib, tmp[k]));
     }
     return n;
 }
@@ -38,10 +38,14 @@ void ContactBuffer::sort_canonical() {
 
 std::uint64_t contact_digest(const ContactBuffer& buf) {
     Fnv1a h;
-    for (const ContactRecord& c : buf.items()) {
+    const std::vector<ContactRecord>& items = buf.items();
+    std::uint32_t index = 0;
+    for (std::size_t k = 0; k < items.size(); ++k) {
+        const ContactRecord& c = items[k];
+        index = k > 0 && same_pair(items[k - 1], c) ? index + 1 : 0;
         h.add(c.lo);
         h.add(c.hi);
-        h.add(c.index);
+        h.add(index);
         h.add_doubles(c.geom.pos, 3);
         h.add_doubles(c.geom.normal, 3);
         h.add_doubles(&c.geom.depth, 1);

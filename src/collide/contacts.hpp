@@ -20,51 +20,77 @@ inline void set_geom_id(dGeomID g, std::uint32_t id) {
     dGeomSetData(g, reinterpret_cast<void*>(static_cast<std::uintptr_t>(id)));
 }
 
-// ODE's dContactGeom without the unused fourth components of its two vectors
-// (80 bytes, not 96): the same values, and the same fields by name.
-struct ContactGeom {
-    ContactGeom() {}  // left uninitialised, as dContactGeom
-    explicit ContactGeom(const dContactGeom& c)
-        : pos{c.pos[0], c.pos[1], c.pos[2]}, normal{c.normal[0], c.normal[1], c.normal[2]}, depth(c.depth),
-          g1(c.g1), g2(c.g2), side1(c.side1), side2(c.side2) {}
-    // As an ODE contact, the fourth components set to zero.
-    dContactGeom ode() const {
+// A contact's point, normal and depth, as dCollide wrote them.
+struct ContactPoint {
+    dReal pos[3];
+    dReal normal[3];
+    dReal depth;
+};
+
+// One contact of a step: ODE's dContactGeom less what the ids give back
+// (72 bytes, not 96). g1 and g2 are the geoms of lo and hi (dCollide's first
+// and second argument); the contact's index within its pair is its position
+// among the consecutive records of that pair (contact_index).
+// Trade-off: whoever needs the geoms looks them up by id (World::geom_of,
+// GeomsById), for a third less memory traffic wherever contacts are written
+// and read: the merge writes 1.7 million of them a step at 10^6 catoms.
+struct ContactRecord {
+    // Left uninitialised: the merge sizes the step's buffer (1.7 million
+    // records at 10^6 catoms) and then writes every record on its threads; a
+    // zeroing resize was a serial pass over all of it first.
+    ContactRecord() {}
+    ContactRecord(std::uint32_t lo_, std::uint32_t hi_, const dContactGeom& c)
+        : lo(lo_), hi(hi_), geom{{c.pos[0], c.pos[1], c.pos[2]}, {c.normal[0], c.normal[1], c.normal[2]}, c.depth},
+          side1(c.side1), side2(c.side2) {}
+    // As ODE's contact, given the geoms of lo and hi (fourth components zero).
+    dContactGeom ode(dGeomID g1, dGeomID g2) const {
         dContactGeom c;
-        for (int k = 0; k < 3; ++k) c.pos[k] = pos[k], c.normal[k] = normal[k];
+        for (int k = 0; k < 3; ++k) c.pos[k] = geom.pos[k], c.normal[k] = geom.normal[k];
         c.pos[3] = c.normal[3] = 0;
-        c.depth = depth;
+        c.depth = geom.depth;
         c.g1 = g1;
         c.g2 = g2;
         c.side1 = side1;
         c.side2 = side2;
         return c;
     }
-    dReal pos[3];
-    dReal normal[3];
-    dReal depth;
-    dGeomID g1, g2;
-    int side1, side2;
+    std::uint32_t lo;  // id of geom passed first to dCollide
+    std::uint32_t hi;  // id of geom passed second
+    ContactPoint geom;
+    int side1, side2;  // as dCollide wrote them (-1 but for a few colliders)
 };
+static_assert(sizeof(ContactRecord) == 72, "two ids, the contact, its sides, no padding");
 
-struct ContactRecord {
-    // Left uninitialised: the merge sizes the step's buffer (1.9 million
-    // records, 180 MB at 10^6 catoms) and then writes every record on its
-    // threads; a zeroing resize was a serial pass over all of it first.
-    ContactRecord() {}
-    ContactRecord(std::uint32_t lo_, std::uint32_t hi_, std::uint32_t index_, const dContactGeom& geom_)
-        : lo(lo_), hi(hi_), index(index_), geom(geom_) {}
-    std::uint32_t lo;     // id of geom passed first to dCollide
-    std::uint32_t hi;     // id of geom passed second
-    std::uint32_t index;  // index of the contact within its pair
-    ContactGeom geom;     // what dCollide wrote
-};
-static_assert(sizeof(ContactRecord) == 96, "three words of ids, then the contact without padding");
+inline bool same_pair(const ContactRecord& a, const ContactRecord& b) { return a.lo == b.lo && a.hi == b.hi; }
 
+// The index within its pair of contact k of a buffer in canonical order.
+inline std::uint32_t contact_index(const ContactRecord* items, std::size_t k) {
+    std::uint32_t i = 0;
+    while (i < k && same_pair(items[k - i - 1], items[k])) ++i;
+    return i;
+}
+
+// Canonical order by pair; within a pair, records keep the order dCollide
+// wrote them in (every sort of records is stable).
 inline bool canonical_less(const ContactRecord& a, const ContactRecord& b) {
     if (a.lo != b.lo) return a.lo < b.lo;
-    if (a.hi != b.hi) return a.hi < b.hi;
-    return a.index < b.index;
+    return a.hi < b.hi;
 }
+
+// The geoms of a collision call by id (ids are dense): for turning records
+// back into ODE's contacts.
+class GeomsById {
+public:
+    void add(dGeomID g) {
+        const std::uint32_t id = geom_id(g);
+        if (id >= geoms_.size()) geoms_.resize(id + 1, nullptr);
+        geoms_[id] = g;
+    }
+    dGeomID operator[](std::uint32_t id) const { return geoms_[id]; }
+
+private:
+    std::vector<dGeomID> geoms_;
+};
 
 class ContactBuffer {
 public:
@@ -77,7 +103,7 @@ public:
     int collide_pair(dGeomID a, dGeomID b, int max_contacts);
     // Append all of another buffer (used to merge per-task buffers).
     void append(const ContactBuffer& other);
-    // Sort into canonical order. Stable within a pair, so index order is kept.
+    // Sort into canonical order. Stable, so each pair's contacts keep their order.
     void sort_canonical();
 
 private:

@@ -170,19 +170,23 @@ void ContactSolver::classify_and_match() {
     scratch_resize(block_of_, nc);
     scratch_assign(warm_, nc, kNone);
     const bool match = scene_.solver.warm_start && !previous_.empty();
-    auto before = [](const WarmImpulse& m, const ContactRecord& r) {
-        return m.lo != r.lo ? m.lo < r.lo : m.hi != r.hi ? m.hi < r.hi : m.index < r.index;
-    };
     for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         if (k0 == k1) return;
-        std::size_t p = match ? static_cast<std::size_t>(std::lower_bound(previous_.begin(), previous_.end(), items[k0], before) -
+        WarmImpulse key;  // contact k's canonical key
+        key.lo = items[k0].lo;
+        key.hi = items[k0].hi;
+        key.index = contact_index(items.data(), k0);
+        std::size_t p = match ? static_cast<std::size_t>(std::lower_bound(previous_.begin(), previous_.end(), key, warm_less) -
                                                          previous_.begin())
                               : previous_.size();
         for (std::size_t k = k0; k < k1; ++k) {
             classify(k);
             const ContactRecord& r = items[k];
-            while (p < previous_.size() && before(previous_[p], r)) ++p;
-            if (p < previous_.size() && previous_[p].lo == r.lo && previous_[p].hi == r.hi && previous_[p].index == r.index) {
+            key.index = k > k0 && same_pair(items[k - 1], r) ? key.index + 1 : k > k0 ? 0 : key.index;
+            key.lo = r.lo;
+            key.hi = r.hi;
+            while (p < previous_.size() && warm_less(previous_[p], key)) ++p;
+            if (p < previous_.size() && previous_[p].lo == r.lo && previous_[p].hi == r.hi && previous_[p].index == key.index) {
                 warm_[k] = static_cast<std::uint32_t>(p);
             }
         }
@@ -434,7 +438,7 @@ void ContactSolver::remember(std::size_t k) {
     WarmImpulse& m = previous_[k];
     m.lo = r.lo;
     m.hi = r.hi;
-    m.index = r.index;
+    m.index = contact_index(contacts_->items().data(), k);
     for (int row = 0; row < 3; ++row) m.lambda[row] = row < rows ? lambda[row] : 0.0;
 }
 

@@ -430,22 +430,28 @@ const dSurfaceParameters& World::surface(int a, int b) const {
     return surfaces_[static_cast<std::size_t>(a) * scene_.materials.size() + static_cast<std::size_t>(b)];
 }
 
+dGeomID World::geom_of(std::uint32_t id) const {
+    if (id < global_) return geoms_[local_of(id)];
+    return geoms_[bodies_.size() + (id - global_)];
+}
+
+dBodyID World::body_of_geom(std::uint32_t id) const { return id < global_ ? bodies_[local_of(id)] : nullptr; }
+
 bool World::ignores(const ContactRecord& c) const {
     if (joints_.empty()) return false;
-    dBodyID b1 = dGeomGetBody(c.geom.g1), b2 = dGeomGetBody(c.geom.g2);
+    dBodyID b1 = body_of_geom(c.lo), b2 = body_of_geom(c.hi);
     return b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
 }
 
 void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
     for (const ContactRecord& r : contacts) {
         if (ignores(r)) continue;
-        dBodyID b1 = dGeomGetBody(r.geom.g1), b2 = dGeomGetBody(r.geom.g2);
         dContact c;
         c.surface = surface(material_of(r.lo), material_of(r.hi));
-        c.geom = r.geom.ode();
+        c.geom = r.ode(geom_of(r.lo), geom_of(r.hi));
         c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
         dJointID j = dJointCreateContact(world_, contacts_, &c);
-        dJointAttach(j, b1, b2);
+        dJointAttach(j, body_of_geom(r.lo), body_of_geom(r.hi));
     }
 }
 

@@ -85,6 +85,10 @@ public:
 
     // Every geom of space(): local body geoms in local order, then statics.
     const std::vector<dGeomID>& geoms() const { return geoms_; }
+    // The geom of id `id` held here (a local body's or a static one), and
+    // its body (null for a static geom): what a contact's ids name.
+    dGeomID geom_of(std::uint32_t id) const;
+    dBodyID body_of_geom(std::uint32_t id) const;
     int material_of(std::uint32_t geom_id) const;
     // The mass of body `gid` as World gave it to ODE (dBodySetMass copies it,
     // and nothing else in parode sets a mass): what dBodyGetMass would read,
