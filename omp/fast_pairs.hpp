@@ -23,13 +23,6 @@ struct PrimData {
     dReal p[4];  // sphere: centre (p[0..2]) and radius (p[3]); plane: a, b, c, d
 };
 
-// The sides ODE's sphere and plane colliders write on every contact (g1 and
-// g2 are the geoms of the record's ids).
-inline void contact_header(ContactRecord& c) {
-    c.side1 = -1;
-    c.side2 = -1;
-}
-
 // dCollide(s1, s2) for two spheres, s1 given first. Returns the contact count
 // (0 or 1) and fills `c` as ODE does.
 inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactRecord& r) {
@@ -47,7 +40,6 @@ inline int sphere_sphere(const PrimData& s1, const PrimData& s2, ContactRecord& 
     if (d2 > sum * sum * REAL(1.0000000001) && sum >= 0) return 0;
     const dReal d = dSqrt(d2);
     if (d > sum) return 0;
-    contact_header(r);
     if (d <= 0) {
         for (int k = 0; k < 3; ++k) c.pos[k] = s1.p[k];
         c.normal[0] = 1;
@@ -72,7 +64,6 @@ inline int sphere_plane(const PrimData& s, const PrimData& pl, ContactRecord& r)
     const dReal k = dCalcVectorDot3(s.p, pl.p);
     const dReal depth = pl.p[3] - k + radius;
     if (!(depth >= 0)) return 0;
-    contact_header(r);
     for (int j = 0; j < 3; ++j) c.normal[j] = pl.p[j];
     for (int j = 0; j < 3; ++j) c.pos[j] = s.p[j] - pl.p[j] * radius;
     c.depth = depth;
@@ -110,10 +101,11 @@ inline bool fast_contact(const PrimData& a, bool a_sphere, const PrimData& b, bo
 }
 
 // Appends the contact of a sphere/sphere or sphere/plane pair to `out`.
+// (Sides: -1, as ODE's sphere and plane colliders write them.)
 inline void append_fast_pair(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
-                             int max_contacts, std::vector<ContactRecord>& out) {
+                             int max_contacts, ContactBuffer& out) {
     ContactRecord r;
-    if (fast_contact(a, a_sphere, b, b_sphere, max_contacts, r)) out.push_back(r);
+    if (fast_contact(a, a_sphere, b, b_sphere, max_contacts, r)) out.push(r);
 }
 
 // Whether fast_contact finds a contact: the same tests without building it,

@@ -148,16 +148,42 @@ void prefetch_run(std::uint32_t a, std::uint32_t b, const FastSource& fast) {
     __builtin_prefetch(&fast.prim(b));
 }
 
-// A run's contacts at `to`; returns the end.
-ContactRecord* write_run(const RunRef& r, const Lane* lane, const FastSource& fast, ContactRecord* to) {
+// Where the merge writes: the records, and the sides when some lane has any
+// (null otherwise: every contact's sides are then -1).
+struct Dest {
+    ContactRecord* items;
+    ContactSides* sides;
+};
+
+// Sizes `out` for n contacts (every one written afterwards) and its sides
+// table for the lanes' sides, if any lane has some.
+Dest size_out(const std::vector<Lane>& lanes, std::size_t n, ContactBuffer& out) {
+    scratch_resize(out.items(), n);
+    const bool sides = std::any_of(lanes.begin(), lanes.end(), [](const Lane& l) { return l.buf.has_sides(); });
+    if (sides) {
+        scratch_resize(out.side_table(), n);
+    } else {
+        out.side_table().clear();
+    }
+    return Dest{out.items().data(), sides ? out.side_table().data() : nullptr};
+}
+
+// A run's contacts at position `at` of `dst`; returns the next position.
+std::size_t write_run(const RunRef& r, const Lane* lane, const FastSource& fast, const Dest& dst, std::size_t at) {
     if (r.a & kStored) {
-        const ContactRecord* from = lane[r.lane].buf.items().data() + (r.a & ~kStored);
-        return std::copy(from, from + r.b, to);
+        const ContactBuffer& buf = lane[r.lane].buf;
+        const std::size_t from = r.a & ~kStored;
+        std::copy(buf.items().data() + from, buf.items().data() + from + r.b, dst.items + at);
+        if (dst.sides) {
+            for (std::uint32_t k = 0; k < r.b; ++k) dst.sides[at + k] = buf.sides(from + k);
+        }
+        return at + r.b;
     }
     const PrimData& pa = fast.prim(r.a);
     const PrimData& pb = fast.prim(r.b);
-    fast_contact(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0, fast.max_contacts, *to);
-    return to + 1;
+    fast_contact(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0, fast.max_contacts, dst.items[at]);
+    if (dst.sides) dst.sides[at] = ContactSides{};
+    return at + 1;
 }
 
 // Each block sorted and at once written out at its offset (stored runs
@@ -167,9 +193,8 @@ void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, cons
                     std::vector<RunRef>& refs, const std::vector<std::size_t>& offsets, std::vector<unsigned char>& rep_of,
                     ContactBuffer& out) {
     const std::size_t nb = block_start.size() - 1;
-    scratch_resize(out.items(), offsets[nb]);  // every element is written below
+    const Dest dst = size_out(lanes, offsets[nb], out);  // every element is written below
     rep_of.assign(nb, 0);
-    ContactRecord* dst = out.items().data();
     const Lane* lane = lanes.data();
     RunRef* ref = refs.data();
     const std::size_t* start = block_start.data();
@@ -180,11 +205,11 @@ void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, cons
     for (std::size_t b = 0; b < nb; ++b) {
         const std::size_t n = start[b + 1] - start[b];
         const RunRef* sorted = sort_block(ref + start[b], ref + start[b + 1]);
-        ContactRecord* to = dst + offset[b];
+        std::size_t to = offset[b];
         for (std::size_t i = 0; i < n; ++i) {
             if (i + kAhead < n) prefetch_run(sorted[i + kAhead].a, sorted[i + kAhead].b, *src);
             if (i > 0 && sorted[i].lo == sorted[i - 1].lo && sorted[i].hi == sorted[i - 1].hi) rep[b] = 1;
-            to = write_run(sorted[i], lane, *src, to);
+            to = write_run(sorted[i], lane, *src, dst, to);
         }
     }
 }
@@ -243,8 +268,7 @@ bool ordered_offsets(const std::vector<Lane>& lanes, std::vector<std::size_t>& o
 void write_lanes(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& offsets,
                  ContactBuffer& out) {
     const std::size_t nl = lanes.size();
-    scratch_resize(out.items(), offsets[nl]);  // every element is written below
-    ContactRecord* dst = out.items().data();
+    const Dest dst = size_out(lanes, offsets[nl], out);  // every element is written below
     const Lane* lane = lanes.data();
     const std::size_t* offset = offsets.data();
     const FastSource* src = &fast;
@@ -252,11 +276,11 @@ void write_lanes(const std::vector<Lane>& lanes, const FastSource& fast, const s
     for (std::size_t l = 0; l < nl; ++l) {
         const std::vector<PairRun>& runs = lane[l].runs;
         const std::size_t n = runs.size();
-        ContactRecord* to = dst + offset[l];
+        std::size_t to = offset[l];
         for (std::size_t i = 0; i < n; ++i) {
             const PairRun& r = runs[i];
             if (i + kAhead < n) prefetch_run(runs[i + kAhead].a, runs[i + kAhead].b, *src);
-            to = write_run(RunRef(r.lo, r.hi, static_cast<std::uint32_t>(l), r.a, r.b), lane, *src, to);
+            to = write_run(RunRef(r.lo, r.hi, static_cast<std::uint32_t>(l), r.a, r.b), lane, *src, dst, to);
         }
     }
 }
@@ -265,11 +289,10 @@ void write_lanes(const std::vector<Lane>& lanes, const FastSource& fast, const s
 
 void Lane::fast(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere,
                 int max_contacts) {
-    std::vector<ContactRecord>& items = buf.items();
-    const std::size_t before = items.size();
-    append_fast_pair(a, a_sphere, b, b_sphere, max_contacts, items);
-    if (items.size() == before) return;
-    const ContactRecord& c = items[before];
+    const std::size_t before = buf.size();
+    append_fast_pair(a, a_sphere, b, b_sphere, max_contacts, buf);
+    if (buf.size() == before) return;
+    const ContactRecord& c = buf.items()[before];
     runs.push_back(PairRun(c.lo, c.hi, static_cast<std::uint32_t>(before) | kStored, 1));
 }
 
@@ -282,16 +305,15 @@ void Lane::generic(dGeomID a, dGeomID b, int max_contacts) {
 }
 
 void store_fast_runs(Lane& lane, const FastSource& fast) {
-    std::vector<ContactRecord>& items = lane.buf.items();
     for (PairRun& r : lane.runs) {
         if (r.a & kStored) continue;
         const PrimData& pa = fast.prim(r.a);
         const PrimData& pb = fast.prim(r.b);
         ContactRecord c;
         fast_contact(pa, (pa.flags & kSphere) != 0, pb, (pb.flags & kSphere) != 0, fast.max_contacts, c);
-        r.a = static_cast<std::uint32_t>(items.size()) | kStored;
+        r.a = static_cast<std::uint32_t>(lane.buf.size()) | kStored;
         r.b = 1;
-        items.push_back(c);
+        lane.buf.push(c);
     }
 }
 

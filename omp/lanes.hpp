@@ -8,7 +8,7 @@
 // The merge orders runs by (lo, hi) with a parallel bucket sort on the lower
 // id, so the result is independent of which thread collided which pair.
 // Trade-off: a sphere contact is computed twice (a few dozen flops) so that it
-// is written once, where the merge puts it, instead of twice (72 bytes each)
+// is written once, where the merge puts it, instead of twice (64 bytes each)
 // through a buffer: half the memory and half the traffic of the stage.
 #pragma once
 #include <ode/ode.h>

@@ -45,7 +45,7 @@ void for_each_pair(const ContactBuffer& contacts, const GeomsById& geoms, void* 
         pair.clear();
         const std::uint32_t lo = items[i].lo, hi = items[i].hi;
         const dGeomID g1 = geoms[lo], g2 = geoms[hi];
-        for (; i < items.size() && items[i].lo == lo && items[i].hi == hi; ++i) pair.push_back(items[i].ode(g1, g2));
+        for (; i < items.size() && items[i].lo == lo && items[i].hi == hi; ++i) pair.push_back(contacts.ode(i, g1, g2));
         callback(data, g1, g2, pair.data(), static_cast<int>(pair.size()));
     }
 }

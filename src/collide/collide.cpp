@@ -52,9 +52,7 @@ void collide_internal(dSpaceID space, CallbackData* data) {
 }  // namespace
 
 void drop_ghost_contacts(ContactBuffer& out, const GhostTest& test) {
-    auto& items = out.items();
-    items.erase(std::remove_if(items.begin(), items.end(), [&test](const ContactRecord& c) { return test.drops(c.lo); }),
-                items.end());
+    out.remove_lo([&test](std::uint32_t lo) { return test.drops(lo); });
 }
 
 void collide_space_reference(dSpaceID space, int max_contacts, ContactBuffer& out) {

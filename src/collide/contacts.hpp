@@ -6,6 +6,7 @@
 #pragma once
 #include <ode/ode.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -27,39 +28,48 @@ struct ContactPoint {
     dReal depth;
 };
 
-// One contact of a step: ODE's dContactGeom less what the ids give back
-// (72 bytes, not 96). g1 and g2 are the geoms of lo and hi (dCollide's first
-// and second argument); the contact's index within its pair is its position
-// among the consecutive records of that pair (contact_index).
+// ODE's sides of a contact: -1 but for the contacts of a few colliders
+// (trimesh, heightfield), which name a triangle or a cell.
+struct ContactSides {
+    int side1 = -1, side2 = -1;
+    bool none() const { return side1 == -1 && side2 == -1; }
+};
+
+// One contact of a step: ODE's dContactGeom less what can be had elsewhere,
+// in one cache line (64 bytes, not 96). g1 and g2 are the geoms of lo and hi
+// (dCollide's first and second argument); the contact's index within its
+// pair is its position among the consecutive records of that pair
+// (contact_index); the sides are the buffer's (ContactBuffer::sides), kept
+// only once some contact has sides other than -1.
 // Trade-off: whoever needs the geoms looks them up by id (World::geom_of,
-// GeomsById), for a third less memory traffic wherever contacts are written
-// and read: the merge writes 1.7 million of them a step at 10^6 catoms.
-struct ContactRecord {
+// GeomsById), and a buffer with sides keeps a second array, for a third less
+// memory traffic wherever contacts are written and read: the merge writes
+// 1.7 million of them a step at 10^6 catoms.
+struct alignas(64) ContactRecord {
     // Left uninitialised: the merge sizes the step's buffer (1.7 million
     // records at 10^6 catoms) and then writes every record on its threads; a
     // zeroing resize was a serial pass over all of it first.
     ContactRecord() {}
     ContactRecord(std::uint32_t lo_, std::uint32_t hi_, const dContactGeom& c)
-        : lo(lo_), hi(hi_), geom{{c.pos[0], c.pos[1], c.pos[2]}, {c.normal[0], c.normal[1], c.normal[2]}, c.depth},
-          side1(c.side1), side2(c.side2) {}
-    // As ODE's contact, given the geoms of lo and hi (fourth components zero).
-    dContactGeom ode(dGeomID g1, dGeomID g2) const {
+        : lo(lo_), hi(hi_), geom{{c.pos[0], c.pos[1], c.pos[2]}, {c.normal[0], c.normal[1], c.normal[2]}, c.depth} {}
+    // As ODE's contact, given the geoms of lo and hi and the sides (fourth
+    // components zero).
+    dContactGeom ode(dGeomID g1, dGeomID g2, ContactSides s) const {
         dContactGeom c;
         for (int k = 0; k < 3; ++k) c.pos[k] = geom.pos[k], c.normal[k] = geom.normal[k];
         c.pos[3] = c.normal[3] = 0;
         c.depth = geom.depth;
         c.g1 = g1;
         c.g2 = g2;
-        c.side1 = side1;
-        c.side2 = side2;
+        c.side1 = s.side1;
+        c.side2 = s.side2;
         return c;
     }
     std::uint32_t lo;  // id of geom passed first to dCollide
     std::uint32_t hi;  // id of geom passed second
     ContactPoint geom;
-    int side1, side2;  // as dCollide wrote them (-1 but for a few colliders)
 };
-static_assert(sizeof(ContactRecord) == 72, "two ids, the contact, its sides, no padding");
+static_assert(sizeof(ContactRecord) == 64, "two ids and the contact: one cache line");
 
 inline bool same_pair(const ContactRecord& a, const ContactRecord& b) { return a.lo == b.lo && a.hi == b.hi; }
 
@@ -94,10 +104,24 @@ private:
 
 class ContactBuffer {
 public:
-    void clear() { items_.clear(); }
+    void clear() {
+        items_.clear();
+        sides_.clear();
+    }
     std::size_t size() const { return items_.size(); }
     const std::vector<ContactRecord>& items() const { return items_; }
+    // For a writer that sizes the records and fills them in place (the
+    // merge); it sets the sides table too (side_table).
     std::vector<ContactRecord>& items() { return items_; }
+    // Whether some contact has sides: the sides table then holds one entry
+    // per record; otherwise it is empty and every contact's sides are -1.
+    bool has_sides() const { return !sides_.empty(); }
+    ContactSides sides(std::size_t k) const { return sides_.empty() ? ContactSides{} : sides_[k]; }
+    std::vector<ContactSides>& side_table() { return sides_; }
+    // Contact k as ODE's, given the geoms of its ids.
+    dContactGeom ode(std::size_t k, dGeomID g1, dGeomID g2) const { return items_[k].ode(g1, g2, sides(k)); }
+    // Appends one contact.
+    void push(const ContactRecord& r, ContactSides s = {});
     // Collide a and b (any order) as dCollide(lower id, higher id) and append
     // every contact. Returns the number of contacts appended.
     int collide_pair(dGeomID a, dGeomID b, int max_contacts);
@@ -105,9 +129,23 @@ public:
     void append(const ContactBuffer& other);
     // Sort into canonical order. Stable, so each pair's contacts keep their order.
     void sort_canonical();
+    // Removes the contacts whose lower id `drop` names, keeping the others' order.
+    template <class Drop>
+    void remove_lo(Drop drop) {
+        std::size_t n = 0;
+        for (std::size_t k = 0; k < items_.size(); ++k) {
+            if (drop(items_[k].lo)) continue;
+            if (!sides_.empty()) sides_[n] = sides_[k];
+            items_[n++] = items_[k];
+        }
+        items_.resize(n);
+        if (!sides_.empty()) sides_.resize(n);
+    }
 
 private:
+    void need_sides();  // the sides table, one entry per record
     std::vector<ContactRecord> items_;
+    std::vector<ContactSides> sides_;
 };
 
 // Bitwise digest of a contact set, for tests that compare backends.

@@ -223,7 +223,7 @@ void Pipeline::run_collide() {
 
 void Pipeline::run_joints() {
     dJointGroupEmpty(world_->contact_group());
-    world_->create_contact_joints(contacts_.items());
+    world_->create_contact_joints(contacts_);
 }
 
 void Pipeline::run_solve() { solver_->step(*world_, contacts_); }

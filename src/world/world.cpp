@@ -443,12 +443,13 @@ bool World::ignores(const ContactRecord& c) const {
     return b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
 }
 
-void World::create_contact_joints(const std::vector<ContactRecord>& contacts) {
-    for (const ContactRecord& r : contacts) {
+void World::create_contact_joints(const ContactBuffer& contacts) {
+    for (std::size_t k = 0; k < contacts.size(); ++k) {
+        const ContactRecord& r = contacts.items()[k];
         if (ignores(r)) continue;
         dContact c;
         c.surface = surface(material_of(r.lo), material_of(r.hi));
-        c.geom = r.ode(geom_of(r.lo), geom_of(r.hi));
+        c.geom = contacts.ode(k, geom_of(r.lo), geom_of(r.hi));
         c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
         dJointID j = dJointCreateContact(world_, contacts_, &c);
         dJointAttach(j, body_of_geom(r.lo), body_of_geom(r.hi));

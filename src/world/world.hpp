@@ -157,7 +157,7 @@ public:
     bool ignores(const ContactRecord& c) const;
     // Create contact joints serially, in the buffer's (canonical) order, except
     // the ignored ones.
-    void create_contact_joints(const std::vector<ContactRecord>& contacts);
+    void create_contact_joints(const ContactBuffer& contacts);
     dJointID joint(std::size_t i) const { return joints_[i]; }
 
 private:
