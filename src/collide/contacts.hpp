@@ -36,7 +36,7 @@ struct ContactSides {
 };
 
 // One contact of a step: ODE's dContactGeom less what can be had elsewhere,
-// in one cache line (64 bytes, not 96). g1 and g2 are the geoms of lo and hi
+// in 64 bytes, not 96. g1 and g2 are the geoms of lo and hi
 // (dCollide's first and second argument); the contact's index within its
 // pair is its position among the consecutive records of that pair
 // (contact_index); the sides are the buffer's (ContactBuffer::sides), kept
@@ -45,7 +45,7 @@ struct ContactSides {
 // GeomsById), and a buffer with sides keeps a second array, for a third less
 // memory traffic wherever contacts are written and read: the merge writes
 // 1.7 million of them a step at 10^6 catoms.
-struct alignas(64) ContactRecord {
+struct ContactRecord {
     // Left uninitialised: the merge sizes the step's buffer (1.7 million
     // records at 10^6 catoms) and then writes every record on its threads; a
     // zeroing resize was a serial pass over all of it first.
@@ -69,7 +69,9 @@ struct alignas(64) ContactRecord {
     std::uint32_t hi;  // id of geom passed second
     ContactPoint geom;
 };
-static_assert(sizeof(ContactRecord) == 64, "two ids and the contact: one cache line");
+// Not over-aligned: libstdc++'s stable_sort buffers ignore an alignment above
+// 16 (the sanitizers flag it), and the records are read and written in order.
+static_assert(sizeof(ContactRecord) == 64, "two ids and the contact, no padding");
 
 inline bool same_pair(const ContactRecord& a, const ContactRecord& b) { return a.lo == b.lo && a.hi == b.hi; }
 
