@@ -66,7 +66,7 @@ std::uint64_t contact_digest(const ContactBuffer& buf) {
     std::uint32_t index = 0;
     for (std::size_t k = 0; k < items.size(); ++k) {
         const ContactRecord& c = items[k];
-        index = k > 0 && same_pair(items[k - 1], c) ? index + 1 : 0;
+        if (k > 0) index = next_index(items.data(), k, index);
         h.add(c.lo);
         h.add(c.hi);
         h.add(index);

@@ -82,6 +82,11 @@ inline std::uint32_t contact_index(const ContactRecord* items, std::size_t k) {
     return i;
 }
 
+// The same for k > 0, given the index of contact k - 1 (a pass in order).
+inline std::uint32_t next_index(const ContactRecord* items, std::size_t k, std::uint32_t before) {
+    return same_pair(items[k - 1], items[k]) ? before + 1 : 0;
+}
+
 // Canonical order by pair; within a pair, records keep the order dCollide
 // wrote them in (every sort of records is stable).
 inline bool canonical_less(const ContactRecord& a, const ContactRecord& b) {

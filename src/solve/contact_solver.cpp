@@ -182,7 +182,7 @@ void ContactSolver::classify_and_match() {
         for (std::size_t k = k0; k < k1; ++k) {
             classify(k);
             const ContactRecord& r = items[k];
-            key.index = k > k0 && same_pair(items[k - 1], r) ? key.index + 1 : k > k0 ? 0 : key.index;
+            if (k > k0) key.index = next_index(items.data(), k, key.index);
             key.lo = r.lo;
             key.hi = r.hi;
             while (p < previous_.size() && warm_less(previous_[p], key)) ++p;

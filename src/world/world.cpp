@@ -437,22 +437,23 @@ dGeomID World::geom_of(std::uint32_t id) const {
 
 dBodyID World::body_of_geom(std::uint32_t id) const { return id < global_ ? bodies_[local_of(id)] : nullptr; }
 
-bool World::ignores(const ContactRecord& c) const {
-    if (joints_.empty()) return false;
-    dBodyID b1 = body_of_geom(c.lo), b2 = body_of_geom(c.hi);
-    return b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
+bool World::joined(dBodyID b1, dBodyID b2) const {
+    return !joints_.empty() && b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact);
 }
+
+bool World::ignores(const ContactRecord& c) const { return !joints_.empty() && joined(body_of_geom(c.lo), body_of_geom(c.hi)); }
 
 void World::create_contact_joints(const ContactBuffer& contacts) {
     for (std::size_t k = 0; k < contacts.size(); ++k) {
         const ContactRecord& r = contacts.items()[k];
-        if (ignores(r)) continue;
+        const dBodyID b1 = body_of_geom(r.lo), b2 = body_of_geom(r.hi);
+        if (joined(b1, b2)) continue;
         dContact c;
         c.surface = surface(material_of(r.lo), material_of(r.hi));
         c.geom = contacts.ode(k, geom_of(r.lo), geom_of(r.hi));
         c.fdir1[0] = c.fdir1[1] = c.fdir1[2] = c.fdir1[3] = 0;
         dJointID j = dJointCreateContact(world_, contacts_, &c);
-        dJointAttach(j, body_of_geom(r.lo), body_of_geom(r.hi));
+        dJointAttach(j, b1, b2);
     }
 }
 

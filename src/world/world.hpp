@@ -162,6 +162,8 @@ public:
 
 private:
     void build_statics();
+    // Whether two bodies are joined by a scene joint (false when either is null).
+    bool joined(dBodyID b1, dBodyID b2) const;
     void build_joints();
     void build_surfaces();
     void describe_spheres();
