@@ -8,6 +8,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace parode {
@@ -103,7 +105,15 @@ public:
         if (id >= geoms_.size()) geoms_.resize(id + 1, nullptr);
         geoms_[id] = g;
     }
-    dGeomID operator[](std::uint32_t id) const { return geoms_[id]; }
+    // The geom of `id`; throws std::invalid_argument, naming the id, when no
+    // geom of that id was added (a contact of a geom outside the call).
+    dGeomID operator[](std::uint32_t id) const {
+        if (id >= geoms_.size() || geoms_[id] == nullptr) {
+            throw std::invalid_argument("GeomsById: no geom with id " + std::to_string(id) +
+                                        " was added (add every geom the contacts name)");
+        }
+        return geoms_[id];
+    }
 
 private:
     std::vector<dGeomID> geoms_;

@@ -378,6 +378,26 @@ TEST(LibraryApi, CallbackSeesCanonicalPairs) {
     EXPECT_TRUE(seen2.geoms_match);
 }
 
+// A pair callback over contacts whose geoms the lookup lacks stops with a
+// message naming the id, before any callback runs.
+TEST(LibraryApi, ForEachPairNamesAMissingGeom) {
+    RandomScene scene(41, SceneOptions{});
+    ContactBuffer buf;
+    collide(scene.space(), kMaxContacts, buf, 2);
+    ASSERT_GT(buf.size(), 0u);
+    GeomsById geoms;  // empty
+    int calls = 0;
+    auto cb = [](void* data, dGeomID, dGeomID, const dContactGeom*, int) { ++*static_cast<int*>(data); };
+    try {
+        for_each_pair(buf, geoms, &calls, cb);
+        FAIL() << "no error for an empty lookup";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("no geom with id " + std::to_string(buf.items()[0].lo)), std::string::npos)
+            << e.what();
+    }
+    EXPECT_EQ(calls, 0);
+}
+
 TEST(LibraryApi, RegistryGridBackendMatches) {
     omp::register_backends();
     auto grid = BackendRegistry::instance().make("grid");
