@@ -53,4 +53,13 @@ inline void advise_huge_pages(const void* data, std::size_t bytes) {
 #endif
 }
 
+// Huge pages for the first `used` bytes of a buffer of `capacity` bytes,
+// through the end of the 2 MB page holding the last of them; the room beyond
+// is left to small pages.
+inline void advise_huge_pages_through(const void* data, std::size_t used, std::size_t capacity) {
+    const auto a = reinterpret_cast<std::uintptr_t>(data);
+    const std::size_t through = ((a + used + kHugePage - 1) & ~(kHugePage - 1)) - a;
+    advise_huge_pages(data, through < capacity ? through : capacity);
+}
+
 }  // namespace parode
