@@ -1,6 +1,8 @@
-// Scratch vectors' page advice (util/scratch.hpp): huge pages for the room a
-// call asks for, small pages for the growth room beyond it, read back from
-// the kernel's own account of the mapping (/proc/self/smaps, VmFlags "hg").
+// Scratch vectors' and pool slots' page advice (util/scratch.hpp,
+// util/scratch_pool.hpp): huge pages for the room a call asks for, small
+// pages for the growth room beyond it, read back from the kernel's own
+// account of the mapping (/proc/self/smaps, VmFlags "hg").
+// Trade-off: Linux only, and skipped where the kernel refuses the advice.
 #include <gtest/gtest.h>
 
 #include <sys/mman.h>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "util/scratch.hpp"
+#include "util/scratch_pool.hpp"
 
 namespace parode {
 namespace {
@@ -70,6 +73,18 @@ TEST(ScratchVectors, HugePagesForTheRoomAskedSmallPagesForTheGrowthRoom) {
     EXPECT_TRUE(advised(last_asked)) << "the page holding the last byte asked";
     EXPECT_FALSE(advised(past_asked)) << "growth room";
     EXPECT_FALSE(advised(a + v.capacity() - 1)) << "growth room";
+}
+
+TEST(ScratchPool, HugePagesForTheBytesAskedSmallPagesForTheGrowthRoom) {
+    if (!huge_pages_wanted() || !huge_pages_supported()) GTEST_SKIP() << "no huge-page advice here";
+    ScratchPool pool;
+    const std::size_t asked = 5 * kHugePage + 12345;
+    const auto a = reinterpret_cast<std::uintptr_t>(pool.take(kSlotGeoms, asked));  // room for twice as much
+    const std::uintptr_t last_asked = a + asked - 1;
+    EXPECT_TRUE(advised((a + kHugePage - 1) & ~(kHugePage - 1)));
+    EXPECT_TRUE(advised(last_asked)) << "the page holding the last byte asked";
+    EXPECT_FALSE(advised((last_asked + kHugePage) & ~(kHugePage - 1))) << "growth room";
+    EXPECT_FALSE(advised(a + 2 * asked - 1)) << "growth room";
 }
 
 }  // namespace
