@@ -158,7 +158,7 @@ struct Dest {
 // Sizes `out` for n contacts (every one written afterwards) and its sides
 // table for the lanes' sides, if any lane has some.
 Dest size_out(const std::vector<Lane>& lanes, std::size_t n, ContactBuffer& out) {
-    scratch_resize(out.items(), n);
+    scratch_resize(out.items(), n, Room::Small);  // the contacts creep up step by step
     const bool sides = std::any_of(lanes.begin(), lanes.end(), [](const Lane& l) { return l.buf.has_sides(); });
     if (sides) {
         scratch_resize(out.side_table(), n);

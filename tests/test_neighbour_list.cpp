@@ -11,6 +11,7 @@
 
 #include "collide/collide.hpp"
 #include "grid_collide.hpp"
+#include "page_advice.hpp"
 #include "sphere_search.hpp"
 #include "scene/scene_file.hpp"
 #include "test_support.hpp"
@@ -155,4 +156,26 @@ TEST(NeighbourList, TheVectorSearchBuildsTheScalarSearchsLists) {
     }
     EXPECT_GE(vec.list_counts().builds, 2u);
     EXPECT_GT(compared, 0u);
+}
+
+// The merge's output (the step's contacts) leaves its growth room to small
+// pages (util/scratch.hpp, Room::Small): the contacts creep up step by step,
+// and a fresh 2 MB page a step was the merge's largest cost at 10^6 on a VM.
+TEST(ContactBuffer, TheMergeLeavesItsGrowthRoomToSmallPages) {
+    if (!huge_pages_wanted() || !test::huge_pages_supported()) GTEST_SKIP() << "no huge-page advice here";
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=64000"});
+    World w(sc, SpaceKind::Simple);
+    omp::CollideEngine e;
+    e.set_threads(2);
+    e.set_geoms(w.space(), &w.geoms());
+    e.set_sphere_bodies(w.sphere_bodies());
+    ContactBuffer out;
+    e.collide(w.space(), 4, out);
+    const std::size_t bytes = out.size() * sizeof(ContactRecord);
+    ASSERT_GT(bytes, 2 * kHugePage);
+    const auto a = reinterpret_cast<std::uintptr_t>(out.items().data());
+    EXPECT_TRUE(test::advised(a + bytes - 1)) << "the contacts themselves";
+    const std::uintptr_t room = (a + bytes + kHugePage - 1) & ~(kHugePage - 1);  // the first whole page past them
+    ASSERT_LE(room + kHugePage, a + out.items().capacity() * sizeof(ContactRecord));
+    EXPECT_FALSE(test::advised(room)) << "growth room";
 }

@@ -4,9 +4,8 @@
 // pool, so the collider's geom tables and the solver's rows and bodies occupy
 // the same memory at different times of the step instead of side by side.
 // A slot grows by freeing its old buffer before taking a new one (twice what
-// is asked, see util/scratch.hpp: huge pages for what is asked, small ones
-// for the room beyond), 64-byte aligned; capacity not yet touched costs no
-// resident memory.
+// is asked, see util/scratch.hpp), 64-byte aligned; capacity not yet touched
+// costs no resident memory.
 // Trade-off: a slot's contents are undefined after resize and are overwritten
 // by the slot's next user, so only arrays whose every element is written after
 // sizing, and read only until the stage ends, may live in a pool; a stage
@@ -31,7 +30,7 @@ public:
             s.data.reset();
             s.capacity = 2 * bytes;
             s.data.reset(new std::byte[s.capacity + 63]);
-            advise_huge_pages_through(s.data.get(), bytes + 63, s.capacity + 63);  // the growth room: small pages
+            advise_huge_pages(s.data.get(), s.capacity + 63);
         }
         const auto at = reinterpret_cast<std::uintptr_t>(s.data.get());
         return s.data.get() + ((64 - at % 64) % 64);
