@@ -27,6 +27,8 @@ inline std::vector<Mapping> mappings() {
         std::uintptr_t b = 0, e = 0;
         char dash = 0;
         std::istringstream range(line);
+        // A mapping's header ("begin-end perms offset dev:inode ...") has its
+        // first ':' after a space; a field line ("Size:  4 kB") before one.
         if (range >> std::hex >> b >> dash >> e && dash == '-' && line.find(' ') != std::string::npos &&
             line.find(':') > line.find(' ')) {
             out.push_back(Mapping{b, e, false});

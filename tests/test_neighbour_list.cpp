@@ -175,7 +175,7 @@ TEST(ContactBuffer, TheMergeLeavesItsGrowthRoomToSmallPages) {
     ASSERT_GT(bytes, 2 * kHugePage);
     const auto a = reinterpret_cast<std::uintptr_t>(out.items().data());
     EXPECT_TRUE(test::advised(a + bytes - 1)) << "the contacts themselves";
-    const std::uintptr_t room = (a + bytes + kHugePage - 1) & ~(kHugePage - 1);  // the first whole page past them
+    const std::uintptr_t room = huge_page_up(a + bytes);  // the first whole page past them
     ASSERT_LE(room + kHugePage, a + out.items().capacity() * sizeof(ContactRecord));
     EXPECT_FALSE(test::advised(room)) << "growth room";
 }

@@ -25,8 +25,8 @@ TEST(ScratchVectors, SmallRoomHugePagesForTheRoomAskedSmallPagesForTheGrowthRoom
     ASSERT_GE(v.capacity(), 2 * asked);
     const auto a = reinterpret_cast<std::uintptr_t>(v.data());
     const std::uintptr_t last_asked = a + asked - 1;
-    const std::uintptr_t first_page = (a + kHugePage - 1) & ~(kHugePage - 1);
-    const std::uintptr_t past_asked = (last_asked + kHugePage) & ~(kHugePage - 1);  // the page after the last byte asked
+    const std::uintptr_t first_page = huge_page_up(a);
+    const std::uintptr_t past_asked = huge_page_up(last_asked + 1);  // the page after the last byte asked
     EXPECT_TRUE(advised(first_page));
     EXPECT_TRUE(advised(last_asked)) << "the page holding the last byte asked";
     EXPECT_FALSE(advised(past_asked)) << "growth room";
@@ -40,7 +40,7 @@ TEST(ScratchVectors, HugeRoomHugePagesThroughout) {
     scratch_resize(v, asked);
     const auto a = reinterpret_cast<std::uintptr_t>(v.data());
     const std::uintptr_t last_page = (a + v.capacity()) & ~(kHugePage - 1);  // the last whole 2 MB page
-    EXPECT_TRUE(advised((a + kHugePage - 1) & ~(kHugePage - 1)));
+    EXPECT_TRUE(advised(huge_page_up(a)));
     EXPECT_TRUE(advised(last_page - 1));
 }
 

@@ -40,11 +40,14 @@ inline bool huge_pages_wanted() {
     return wanted;
 }
 
+// The first 2 MB page boundary at or after address a.
+inline std::uintptr_t huge_page_up(std::uintptr_t a) { return (a + kHugePage - 1) & ~(kHugePage - 1); }
+
 inline void advise_huge_pages(const void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
     if (bytes < kHugeMin || !huge_pages_wanted()) return;
     const auto a = reinterpret_cast<std::uintptr_t>(data);
-    const std::uintptr_t begin = (a + kHugePage - 1) & ~(kHugePage - 1);
+    const std::uintptr_t begin = huge_page_up(a);
     const std::uintptr_t end = (a + bytes) & ~(kHugePage - 1);
     if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);  // advice only
 #else
@@ -58,7 +61,7 @@ inline void advise_huge_pages(const void* data, std::size_t bytes) {
 // is left to small pages.
 inline void advise_huge_pages_through(const void* data, std::size_t used, std::size_t capacity) {
     const auto a = reinterpret_cast<std::uintptr_t>(data);
-    const std::size_t through = ((a + used + kHugePage - 1) & ~(kHugePage - 1)) - a;
+    const std::size_t through = huge_page_up(a + used) - a;
     advise_huge_pages(data, through < capacity ? through : capacity);
 }
 
