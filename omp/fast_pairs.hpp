@@ -10,6 +10,7 @@
 #include <ode/ode.h>
 
 #include <cstdint>
+#include <limits>
 
 #include "collide/contacts.hpp"
 
@@ -109,16 +110,36 @@ inline void append_fast_pair(const PrimData& a, bool a_sphere, const PrimData& b
 }
 
 // Whether fast_contact finds a contact: the same tests without building it,
-// and without branches (their outcome is close to random in a pile). Both
+// and without a branch on their outcome (close to random in a pile). Both
 // tests are symmetric in their arguments, bit for bit.
+// Two spheres: fast_contact's d <= r1 + r2, with d the correctly rounded
+// square root of d2. Where d2 lies clearly below (sum * sum)(1 - 1e-10) or
+// clearly above (sum * sum)(1 + 1e-10), the outcome is known without the
+// square root: below, d2 < sum^2 exactly (the rounding of two products is
+// some 1e-16 against the 1e-10 margin), so sqrt(d2) < sum and its rounding
+// is at most sum (sum * sum a normal number: no underflow, no overflow);
+// above, fast_contact rejects the pair before its square root. Only a pair
+// within the margin (or with a NaN, negative radii, or sum * sum outside the
+// normal range) takes the square root: the branch is on a near-certain outcome. Measured
+// at 10^6 catoms: a square root for each of 3 million listed pairs a step.
 inline bool fast_touch(const PrimData& a, bool a_sphere, const PrimData& b, bool b_sphere) {
     if (a_sphere && b_sphere) {
         dVector3 diff;
         dSubtractVectors3(diff, a.p, b.p);
         const dReal d2 = diff[0] * diff[0] + diff[1] * diff[1] + diff[2] * diff[2];
         const dReal sum = a.p[3] + b.p[3];
-        const bool far = (d2 > sum * sum * REAL(1.0000000001)) & (sum >= 0);
-        return !far & !(dSqrt(d2) > sum);
+        const dReal sum2 = sum * sum;
+        const bool far = (d2 > sum2 * REAL(1.0000000001)) & (sum >= 0);
+        const bool normal = (sum2 >= std::numeric_limits<dReal>::min()) & (sum2 <= std::numeric_limits<dReal>::max());
+        const bool near = (d2 <= sum2 * REAL(0.9999999999)) & (sum >= 0) & normal;
+        // One branch on both: the compiler would otherwise branch on `far`
+        // and on `near` apart, each close to random in a pile.
+        unsigned known = static_cast<unsigned>(near) | static_cast<unsigned>(far);
+#if defined(__GNUC__) || defined(__clang__)
+        asm("" : "+r"(known));  // opaque: known is tested as one value
+#endif
+        if (__builtin_expect(known == 0, 0)) return !far & !(dSqrt(d2) > sum);
+        return near;
     }
     const PrimData& s = a_sphere ? a : b;
     const PrimData& pl = a_sphere ? b : a;

@@ -348,6 +348,51 @@ TEST(FastPairs, SphereSphereAndSpherePlaneEqualDCollide) {
     dSpaceDestroy(space);
 }
 
+// fast_touch (the list pass's test) says "touch" exactly when fast_contact
+// gives a contact, both ways round, for pairs at the edge of touching: the
+// distance swept ulp by ulp and by relative steps of 1e-11 around the sum of
+// the radii, over magnitudes from where the squares fall below the normal
+// range to where they overflow, with negative radii and NaN centres too.
+TEST(FastPairs, TouchTestAgreesWithTheContactAtTheEdge) {
+    auto sphere = [](double x, double y, double r, std::uint32_t id) {
+        omp::PrimData p{nullptr, id, 0, {x, y, 0.5 * y, r}};
+        p.geom = reinterpret_cast<dGeomID>(static_cast<std::uintptr_t>(16 + id));  // distinct, never read
+        return p;
+    };
+    std::size_t pairs = 0, touching = 0;
+    int mismatches = 0;
+    auto check = [&](const omp::PrimData& a, const omp::PrimData& b) {
+        ContactRecord c;
+        const bool contact = omp::fast_contact(a, true, b, true, 4, c);
+        for (const bool swapped : {false, true}) {
+            const bool touch = swapped ? omp::fast_touch(b, true, a, true) : omp::fast_touch(a, true, b, true);
+            if (touch != contact && ++mismatches <= 5) {
+                ADD_FAILURE() << "radii " << a.p[3] << ", " << b.p[3] << " at " << b.p[0] << ": touch " << touch
+                              << ", contact " << contact;
+            }
+        }
+        ++pairs;
+        touching += contact;
+    };
+    for (double scale = 1e-170; scale < 1e170; scale *= 7.3) {
+        const double r1 = 0.5 * scale, r2 = 0.3 * scale, sum = r1 + r2;
+        const omp::PrimData a = sphere(0, 0, r1, 0);
+        for (const double y : {0.0, 0.1 * scale}) {
+            const double along = std::sqrt(std::max(0.0, sum * sum - 1.25 * y * y));
+            double x = along;
+            for (int k = 0; k < 40; ++k) x = std::nextafter(x, 0.0);
+            for (int k = 0; k < 80; ++k, x = std::nextafter(x, HUGE_VAL)) check(a, sphere(x, y, r2, 1));
+            for (double rel = -1e-9; rel <= 1e-9; rel += 1e-11) check(a, sphere(along * (1 + rel), y, r2, 1));
+        }
+    }
+    check(sphere(0, 0, -0.5, 0), sphere(0.1, 0, 0.3, 1));                  // negative radii: never touch
+    check(sphere(0, 0, 0.5, 0), sphere(std::nan(""), 0, 0.3, 1));          // NaN: never touch
+    check(sphere(0, 0, 1e200, 0), sphere(1e200, 1e200, 1e200, 1));       // squares overflow
+    EXPECT_EQ(mismatches, 0);
+    EXPECT_GT(touching, pairs / 4);       // not vacuous: both outcomes,
+    EXPECT_LT(touching, 3 * pairs / 4);   // in about equal numbers
+}
+
 // What the callback saw: the pairs as records, and whether every contact
 // named the two geoms the callback was given.
 struct Seen {
