@@ -185,6 +185,18 @@ inline bool aabb_overlap(const dReal* a, const dReal* b) {
     return !apart;
 }
 
+// ODE's AABB overlap test and fast_contact's test on two spheres without
+// offset: the AABBs are built only at the edge, since a near verdict implies
+// their overlap (sphere_squares).
+inline bool spheres_overlap_and_touch(const PrimData& a, const PrimData& b) {
+    const SquaresVerdict v = sphere_squares(a, b);
+    if (!at_the_edge(v)) return v.near;
+    dReal ba[6], bb[6];
+    sphere_aabb(a.p, ba);
+    sphere_aabb(b.p, bb);
+    return aabb_overlap(ba, bb) & edge_touch(v);
+}
+
 // Body and category/collide tests of collideAABBs (AABB overlap tested apart).
 inline bool body_and_bits_pass(const GeomFull& a, const GeomFull& b) {
     if (a.body && a.body == b.body) return false;

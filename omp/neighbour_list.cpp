@@ -54,11 +54,9 @@ std::size_t list_sphere(const PairInputs& in, const GridEntry& ea, const PrimDat
     for (std::uint32_t k = k0; k < k1; ++k) {
         const std::uint32_t b = walked(walk, next[k].w);
         const GeomInfo& gb = info[b];
-        dReal bb[6];
-        sphere_aabb(gb.prim.p, bb);
         const GridTag tb{gb.body, b, gb.prim.flags};
-        const bool touch = ((gb.prim.flags & kEnabled) != 0) & aabb_overlap(ea.aabb, bb) &
-                           tags_pass(in, ea.tag, tb) & (in.max_contacts >= 1) & fast_touch(pa, true, gb.prim, true);
+        const bool touch = ((gb.prim.flags & kEnabled) != 0) & tags_pass(in, ea.tag, tb) & (in.max_contacts >= 1) &
+                           spheres_overlap_and_touch(pa, gb.prim);
         out[n] = PairRun(std::min(pa.id, gb.prim.id), std::max(pa.id, gb.prim.id), ea.tag.info, b);
         n += touch;
     }

@@ -348,49 +348,64 @@ TEST(FastPairs, SphereSphereAndSpherePlaneEqualDCollide) {
     dSpaceDestroy(space);
 }
 
-// fast_touch (the list pass's test) says "touch" exactly when fast_contact
-// gives a contact, both ways round, for pairs at the edge of touching: the
-// distance swept ulp by ulp and by relative steps of 1e-11 around the sum of
-// the radii, over magnitudes from where the squares fall below the normal
-// range to where they overflow, with negative radii and NaN centres too.
-TEST(FastPairs, TouchTestAgreesWithTheContactAtTheEdge) {
-    auto sphere = [](double x, double y, double r, std::uint32_t id) {
-        omp::PrimData p{nullptr, id, 0, {x, y, 0.5 * y, r}};
+// fast_touch (the grid's test) says "touch" exactly when fast_contact gives
+// a contact, both ways round, and spheres_overlap_and_touch (the list's)
+// exactly when ODE's sphere AABBs overlap too, for pairs at the edge of
+// touching: the distance swept ulp by ulp and by relative steps of 1e-11
+// around the sum of the radii, over magnitudes from where the squares fall
+// below the normal range to where they overflow, near the origin and far
+// from it (where rounding x -+ r can part the AABBs of touching spheres),
+// with negative radii and NaN centres too.
+TEST(FastPairs, TouchTestsAgreeWithTheContactAtTheEdge) {
+    auto sphere = [](double x, double y, double off, double r, std::uint32_t id) {
+        omp::PrimData p{nullptr, id, 0, {off + x, off + y, off + 0.5 * y, r}};
         p.geom = reinterpret_cast<dGeomID>(static_cast<std::uintptr_t>(16 + id));  // distinct, never read
         return p;
     };
-    std::size_t pairs = 0, touching = 0;
+    std::size_t pairs = 0, touching = 0, parted = 0;
     int mismatches = 0;
     auto check = [&](const omp::PrimData& a, const omp::PrimData& b) {
         ContactRecord c;
         const bool contact = omp::fast_contact(a, true, b, true, 4, c);
+        dReal ba[6], bb[6];
+        omp::sphere_aabb(a.p, ba);
+        omp::sphere_aabb(b.p, bb);
+        const bool overlap = omp::aabb_overlap(ba, bb);
         for (const bool swapped : {false, true}) {
-            const bool touch = swapped ? omp::fast_touch(b, true, a, true) : omp::fast_touch(a, true, b, true);
-            if (touch != contact && ++mismatches <= 5) {
-                ADD_FAILURE() << "radii " << a.p[3] << ", " << b.p[3] << " at " << b.p[0] << ": touch " << touch
-                              << ", contact " << contact;
+            const omp::PrimData& p = swapped ? b : a;
+            const omp::PrimData& q = swapped ? a : b;
+            const bool touch = omp::fast_touch(p, true, q, true);
+            const bool listed = omp::spheres_overlap_and_touch(p, q);
+            if ((touch != contact || listed != (overlap && contact)) && ++mismatches <= 5) {
+                ADD_FAILURE() << "radii " << a.p[3] << ", " << b.p[3] << " at " << b.p[0] << " - " << a.p[0]
+                              << ": touch " << touch << ", contact " << contact << ", listed " << listed
+                              << ", overlap " << overlap;
             }
         }
         ++pairs;
         touching += contact;
+        parted += contact && !overlap;
     };
     for (double scale = 1e-170; scale < 1e170; scale *= 7.3) {
         const double r1 = 0.5 * scale, r2 = 0.3 * scale, sum = r1 + r2;
-        const omp::PrimData a = sphere(0, 0, r1, 0);
-        for (const double y : {0.0, 0.1 * scale}) {
-            const double along = std::sqrt(std::max(0.0, sum * sum - 1.25 * y * y));
-            double x = along;
-            for (int k = 0; k < 40; ++k) x = std::nextafter(x, 0.0);
-            for (int k = 0; k < 80; ++k, x = std::nextafter(x, HUGE_VAL)) check(a, sphere(x, y, r2, 1));
-            for (double rel = -1e-9; rel <= 1e-9; rel += 1e-11) check(a, sphere(along * (1 + rel), y, r2, 1));
+        for (const double off : {0.0, 3e7 * scale}) {
+            const omp::PrimData a = sphere(0, 0, off, r1, 0);
+            for (const double y : {0.0, 0.1 * scale}) {
+                const double along = std::sqrt(std::max(0.0, sum * sum - 1.25 * y * y));
+                double x = along;
+                for (int k = 0; k < 40; ++k) x = std::nextafter(x, 0.0);
+                for (int k = 0; k < 80; ++k, x = std::nextafter(x, HUGE_VAL)) check(a, sphere(x, y, off, r2, 1));
+                for (double rel = -1e-9; rel <= 1e-9; rel += 1e-11) check(a, sphere(along * (1 + rel), y, off, r2, 1));
+            }
         }
     }
-    check(sphere(0, 0, -0.5, 0), sphere(0.1, 0, 0.3, 1));                  // negative radii: never touch
-    check(sphere(0, 0, 0.5, 0), sphere(std::nan(""), 0, 0.3, 1));          // NaN: never touch
-    check(sphere(0, 0, 1e200, 0), sphere(1e200, 1e200, 1e200, 1));       // squares overflow
+    check(sphere(0, 0, 0, -0.5, 0), sphere(0.1, 0, 0, 0.3, 1));             // negative radii: never touch
+    check(sphere(0, 0, 0, 0.5, 0), sphere(std::nan(""), 0, 0, 0.3, 1));     // NaN: never touch
+    check(sphere(0, 0, 0, 1e200, 0), sphere(1e200, 1e200, 0, 1e200, 1));  // squares overflow
     EXPECT_EQ(mismatches, 0);
-    EXPECT_GT(touching, pairs / 4);       // not vacuous: both outcomes,
-    EXPECT_LT(touching, 3 * pairs / 4);   // in about equal numbers
+    EXPECT_GT(touching, pairs / 4);      // not vacuous: both outcomes,
+    EXPECT_LT(touching, 3 * pairs / 4);  // in about equal numbers,
+    EXPECT_GT(parted, 0u);               // and touching spheres whose AABBs part
 }
 
 // What the callback saw: the pairs as records, and whether every contact
