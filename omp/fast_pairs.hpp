@@ -4,8 +4,11 @@
 // same argument swap (normal negated) when the plane comes first.
 // Trade-off: saves ODE's dispatch and two scattered geom reads per pair, at the
 // price of depending on ODE's formulas for these two pairs; the omp tests check
-// every contact against dCollide bit for bit. This file must be compiled without
-// floating-point contraction (-ffp-contract=off), as ODE is.
+// every contact against dCollide bit for bit. The touch tests the narrowphase
+// runs on every candidate give fast_contact's outcome, deciding most pairs
+// from the squares alone (sphere_squares: the square root only at the edge).
+// This file must be compiled without floating-point contraction
+// (-ffp-contract=off), as ODE is.
 #pragma once
 #include <ode/ode.h>
 
