@@ -18,11 +18,12 @@
 #include <iostream>
 
 #include "cli_common.hpp"
-#include "grid_collide.hpp"
-#include "io/output_error.hpp"
+#include "omp/grid/grid_collide.hpp"
+#include "util/errors.hpp"
 #include "util/hash.hpp"
 #include "util/median.hpp"
 #include "run/pipeline.hpp"
+#include "run/stages.hpp"
 #include "scene/scene_file.hpp"
 
 namespace parode::cli {
@@ -31,6 +32,7 @@ namespace {
 struct Variant {
     std::string label;
     std::vector<std::array<double, 6>> phases;  // grid: refresh+read, build, pairs, deferred, merge, total
+    std::unique_ptr<Execution> exec;  // the variant's own threads
     std::unique_ptr<CollideBackend> backend;
     std::unique_ptr<World> world;
     std::vector<double> seconds;
@@ -49,8 +51,11 @@ Variant make_variant(const Scene& scene, const std::string& spec) {
     Variant v;
     v.label = spec;
     const auto [name, threads] = split_threads(spec);
-    v.backend = BackendRegistry::instance().make(name);
-    v.backend->set_threads(threads);
+    ExecutionConfig config;
+    config.threads = threads;
+    config.threads_from = "--backends " + spec;
+    v.exec = Stages::instance().execution(config);
+    v.backend = Stages::instance().collide.make(name, *v.exec);
     v.world = std::make_unique<World>(scene, v.backend->space_kind());
     v.backend->set_geoms(v.world->space(), &v.world->geoms());  // as the pipeline does
     v.backend->set_sphere_bodies(v.world->sphere_bodies());

@@ -15,9 +15,8 @@
 #include <iostream>
 
 #include "cli_common.hpp"
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 #include "run/pipeline.hpp"
-#include "register.hpp"
 #include "scene/scene_file.hpp"
 
 namespace parode::cli {
@@ -46,7 +45,8 @@ std::unique_ptr<Pipeline> make_pipeline(const Scene& sc, const std::string& coll
     RunOptions opt;
     opt.collide = collide;
     opt.solver = solver;
-    opt.threads = threads;
+    opt.execution.threads = threads;
+    opt.execution.threads_from = "--backends";
     return std::make_unique<Pipeline>(sc, opt);
 }
 
@@ -62,7 +62,6 @@ double rms_position_error(const Pipeline& a, const Pipeline& ref) {
 }
 
 void advance(StepVariant& v, int steps) {
-    parode::omp::set_threads(v.threads);
     const auto t0 = std::chrono::steady_clock::now();
     for (int s = 0; s < steps; ++s) v.p->step();
     v.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -130,7 +129,6 @@ int bench_step(const BenchArgs& a) {
         const int n = turn_length(a, done, steps, ref != nullptr);
         for (auto& v : vars) advance(v, n);
         if (ref) {
-            parode::omp::set_threads(1);
             for (int s = 0; s < n; ++s) ref->step();
         }
         done += n;

@@ -16,8 +16,9 @@
 #include <sstream>
 
 #include "collide/collide.hpp"
+#include "run/stages.hpp"
 #include "io/error_metrics.hpp"
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 #include "processes.hpp"
 #include "progress.hpp"
 #include "run/memory_estimate.hpp"
@@ -126,16 +127,27 @@ std::string resolve_backend(const std::string& flag, const std::string& from_sce
     return from_scene;
 }
 
-std::string backend_list() {
-    std::string out;
-    for (const auto& n : BackendRegistry::instance().names()) out += (out.empty() ? "" : ", ") + n;
-    return out;
-}
+std::string backend_list() { return Stages::instance().collide.listing(); }
 
-std::string solver_list() {
-    std::string out;
-    for (const auto& n : SolverRegistry::instance().names()) out += (out.empty() ? "" : ", ") + n;
-    return out;
+std::string solver_list() { return Stages::instance().solver.listing(); }
+
+ExecutionConfig execution_config(const Threads& threads) {
+    ExecutionConfig c;
+    c.threads = threads.count;
+    c.threads_from = threads.source;
+    // PARODE_MIN_PARALLEL=N: stages run threaded from N items on, whatever
+    // their crossover and however long threads wait (jobs/crossover.py
+    // measures the crossovers with it).
+    if (const char* env = std::getenv("PARODE_MIN_PARALLEL"); env && *env) {
+        long n = 0;
+        if (!parse_long(env, n) || n < 0) {
+            throw std::invalid_argument(std::string("PARODE_MIN_PARALLEL=") + env +
+                                        ": expected a whole number of items, 0 or more");
+        }
+        c.min_parallel = n;
+        c.adaptive = false;
+    }
+    return c;
 }
 
 void check_output_path(const std::string& option, const std::string& path) {

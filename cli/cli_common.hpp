@@ -11,6 +11,7 @@
 #include <functional>
 #include <string>
 
+#include "exec/execution.hpp"
 #include "io/trajectory.hpp"
 #include "run/memory_estimate.hpp"
 #include "scene/scene_file.hpp"
@@ -55,6 +56,9 @@ std::string resolve_backend(const std::string& flag, const std::string& from_sce
                             const std::vector<std::string>& known, const char* fallback);
 std::string backend_list();
 std::string solver_list();
+// The execution context of a run on `threads` (and PARODE_MIN_PARALLEL, a
+// testing aid read here only: every loop threaded from that many items).
+ExecutionConfig execution_config(const Threads& threads);
 
 // Fails (OutputError naming the option and the path) unless `path` can be
 // written: not a directory, its directory exists, a file can be opened there.

@@ -8,7 +8,7 @@
 
 #include "cli_common.hpp"
 #include "io/error_metrics.hpp"
-#include "io/report.hpp"
+#include "run/report.hpp"
 
 namespace parode::cli {
 namespace {

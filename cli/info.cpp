@@ -19,6 +19,7 @@
 #include "processes.hpp"
 #include "run/memory_estimate.hpp"
 #include "run/stage_plan.hpp"
+#include "run/stages.hpp"
 #include "solve/solver.hpp"
 
 namespace parode::cli {
@@ -34,10 +35,13 @@ nlohmann::json sizes(const Scene& sc) {
 }
 
 nlohmann::json stages_json(const Scene& sc, const InfoArgs& a, int threads, const DistributionVerdict& v, double edge) {
-    const auto backend = BackendRegistry::instance().make(a.collide);
-    const auto solver = SolverRegistry::instance().make(a.solver, sc, threads);
+    ExecutionConfig config;
+    config.threads = threads;
+    const auto exec = Stages::instance().execution(config);
+    const auto backend = Stages::instance().collide.make(a.collide, *exec);
+    const auto solver = Stages::instance().solver.make(a.solver, sc, *exec);
     const bool distributed = a.ranks > 1 && v.ok;
-    StagePlanInput in{distributed, distributed ? distributed_why(a.ranks, edge) : Domain().why(),
+    StagePlanInput in{distributed, distributed ? distributed_why(a.ranks, edge) : Decomposition().why(),
                       backend->name(), solver->uses_contact_joints(), solver->name(), solver->why(), "", 0};
     const auto plan = stage_plan(sc, in);
     nlohmann::json j;
@@ -80,9 +84,9 @@ nlohmann::json distributed_json(const CellCensus& census, const InfoArgs& a, con
 nlohmann::json info_json(const InfoArgs& given) {
     const Scene sc = load_scene(given.scene, given.sets);
     InfoArgs a = given;  // with the backends `parode run` would choose
-    a.collide = resolve_backend(a.collide, sc.run.collide, sc.run.collide_where, BackendRegistry::instance().names(),
+    a.collide = resolve_backend(a.collide, sc.run.collide, sc.run.collide_where, Stages::instance().collide.accepted(),
                                 kDefaultCollide);
-    a.solver = resolve_backend(a.solver, sc.run.solver, sc.run.solver_where, SolverRegistry::instance().names(),
+    a.solver = resolve_backend(a.solver, sc.run.solver, sc.run.solver_where, Stages::instance().solver.accepted(),
                                kDefaultSolver);
     const int threads = resolve_threads(a.threads, sc.run.threads).count;
     const long steps = a.steps >= 0 ? a.steps : sc.steps;
@@ -183,9 +187,9 @@ void add_info(CLI::App& app, InfoArgs& a, std::function<int()>& action) {
     info->add_option("scene", a.scene, "Scene file (TOML)")->required();
     info->add_option("--set", a.sets, "Override a scene value, key=value; repeatable")->allow_extra_args(false);
     info->add_option("--collide", a.collide, "Collision backend: " + backend_list())
-        ->check(CLI::IsMember(BackendRegistry::instance().names()))->capture_default_str();
+        ->check(CLI::IsMember(Stages::instance().collide.accepted()))->capture_default_str();
     info->add_option("--solver", a.solver, "Solver: " + solver_list())
-        ->check(CLI::IsMember(SolverRegistry::instance().names()))->capture_default_str();
+        ->check(CLI::IsMember(Stages::instance().solver.accepted()))->capture_default_str();
     info->add_option("--threads", a.threads, "Threads (default: OMP_NUM_THREADS, else 1)")->check(int_in(1, kMaxThreads));
     info->add_option("--ranks", a.ranks, "MPI processes of the run to describe")->check(int_in(1, 1000000))
         ->capture_default_str();

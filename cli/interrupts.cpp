@@ -29,7 +29,7 @@ Interrupts::~Interrupts() {
     std::signal(SIGINT, g_old_int);
 }
 
-bool Interrupts::requested(const Domain& domain) const {
+bool Interrupts::requested(const Collectives& domain) const {
     double got = g_signal;
     if (domain.distributed()) got = domain.max(got);
     return got != 0;

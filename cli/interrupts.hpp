@@ -9,7 +9,7 @@
 #pragma once
 #include <string>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 
 namespace parode::cli {
 
@@ -20,7 +20,7 @@ public:
     Interrupts(const Interrupts&) = delete;
     Interrupts& operator=(const Interrupts&) = delete;
     // Collective: true when any process got SIGTERM or SIGINT.
-    bool requested(const Domain& domain) const;
+    bool requested(const Collectives& domain) const;
     // "SIGTERM" or "SIGINT" (of this process, or of any when none here).
     std::string name() const;
 };

@@ -28,11 +28,15 @@
 #include "interrupts.hpp"
 #include "processes.hpp"
 #include "io/error_metrics.hpp"
-#include "io/report.hpp"
+#include "run/report.hpp"
 #include "io/snapshot.hpp"
 #include "io/xdmf.hpp"
 #include "progress.hpp"
-#include "register.hpp"
+#include "omp/stages.hpp"
+#include "run/stages.hpp"
+#ifdef PARODE_HAVE_MPI
+#include "mpi/stages.hpp"
+#endif
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
 
@@ -90,12 +94,12 @@ void check_outputs(const RunArgs& a) {
 
 // The collide backend: --collide, else the scene's [run] collide, else grid.
 std::string collide_of(const RunArgs& a, const Scene& sc) {
-    return resolve_backend(a.collide, sc.run.collide, sc.run.collide_where, BackendRegistry::instance().names(),
+    return resolve_backend(a.collide, sc.run.collide, sc.run.collide_where, Stages::instance().collide.accepted(),
                            kDefaultCollide);
 }
 
 std::string solver_of(const RunArgs& a, const Scene& sc) {
-    return resolve_backend(a.solver, sc.run.solver, sc.run.solver_where, SolverRegistry::instance().names(),
+    return resolve_backend(a.solver, sc.run.solver, sc.run.solver_where, Stages::instance().solver.accepted(),
                            kDefaultSolver);
 }
 
@@ -128,7 +132,7 @@ bool run_steps(const RunArgs& a, long steps, Pipeline& pipeline, const Interrupt
         if (a.checkpoint_every > 0 && pipeline.steps_done() % a.checkpoint_every == 0 && s + 1 < steps) {
             pipeline.write_checkpoint(a.checkpoint);
         }
-        if (interrupts.requested(pipeline.domain())) return true;
+        if (interrupts.requested(pipeline.collectives())) return true;
     }
     return false;
 }
@@ -139,20 +143,17 @@ int run_command(const RunArgs& a) {
     if (procs.root()) check_outputs(a);  // the root writes every file
     RunOptions opt;
     const Scene scene = load_run_scene(a);
-    const Threads threads = resolve_threads(a.threads, scene.run.threads);
-    opt.threads = threads.count;
+    opt.execution = execution_config(resolve_threads(a.threads, scene.run.threads));
     const long steps = step_count(a, scene);
     opt.collide = collide_of(a, scene);
     opt.solver = solver_of(a, scene);
-    parode::omp::set_threads(opt.threads);
     opt.snapshot_path = a.snapshot;
     opt.snapshot_every = a.snapshot.empty() ? 0 : static_cast<int>(a.snapshot_every);
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
     opt.invariants_every = a.check_every;
     opt.restart_path = a.restart;
-    const std::unique_ptr<Domain> domain = procs.make_domain(scene);
-    opt.domain = domain.get();
+    opt.domain = procs.size() > 1 ? "mpi" : "single";
     Pipeline pipeline(scene, opt);
     const Interrupts interrupts;
     const auto t0 = std::chrono::steady_clock::now();
@@ -160,9 +161,8 @@ int run_command(const RunArgs& a) {
     pipeline.finish();
     const std::string checkpoint = stopped && a.checkpoint.empty() ? scene.name + "-interrupted.ckpt" : a.checkpoint;
     if (!checkpoint.empty()) pipeline.write_checkpoint(checkpoint);
-    RunInfo info{a.scene, opt.threads, procs.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+    RunInfo info{a.scene, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
     nlohmann::json report = make_report(scene, pipeline, info);
-    report["threads_from"] = threads.source;
     if (!a.restart.empty()) {
         const std::string caveat = pipeline.restart_caveat();
         report["restart"] = {{"from", a.restart}, {"step", pipeline.first_step()}, {"exact", caveat.empty()},
@@ -193,9 +193,9 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
         ->check(int_in(1, kMaxThreads));
     run->add_option("--collide", a.collide,
                     "Collision backend: " + backend_list() + " (default: the scene's [run] collide, else grid)")
-        ->check(CLI::IsMember(BackendRegistry::instance().names()));
+        ->check(CLI::IsMember(Stages::instance().collide.accepted()));
     run->add_option("--solver", a.solver, "Solver: " + solver_list() + " (default: the scene's [run] solver, else parallel)")
-        ->check(CLI::IsMember(SolverRegistry::instance().names()));
+        ->check(CLI::IsMember(Stages::instance().solver.accepted()));
     run->footer(
         "Fastest by default: --collide grid --solver parallel on every core the process may use. grid gives the\n"
         "contacts of ODE's own spaces bit for bit, without their n^2 memory (ODE's hash space cannot hold a million\n"
@@ -244,7 +244,10 @@ int main(int argc, char** argv) {
         std::cerr << "parode: " << e.what() << "\n";
         return kExitUsage;
     }
-    parode::omp::register_backends();
+    parode::omp::add_stages();
+#ifdef PARODE_HAVE_MPI
+    parode::mpi::add_stages();
+#endif
     install_ode_handlers();
     CLI::App app{"parode: parallel rigid-body simulation on ODE (see README.md)"};
     app.set_version_flag("--version", version_text(), "Print the version, git commit, ODE, OpenMP and MPI, and exit");

@@ -20,7 +20,7 @@
 #endif
 
 #include "cli_common.hpp"
-#include "register.hpp"
+#include "omp/stages.hpp"
 #include "util/huge_pages.hpp"
 #include "util/median.hpp"
 #include "util/substages.hpp"
@@ -81,7 +81,7 @@ std::vector<double> first_touch(std::size_t bytes, int threads, bool huge) {
 
 int probe(const MemoryArgs& a) {
     const std::size_t n = static_cast<std::size_t>(a.mb) * (std::size_t{1} << 20) / sizeof(double);
-    const int top = a.threads > 0 ? a.threads : omp::max_threads();
+    const int top = a.threads > 0 ? a.threads : omp::default_threads();
     nlohmann::json j = {{"array_mb", a.mb}};
     for (int t = 1; t <= top; ++t) {
         const double gbs = triad(n, t);

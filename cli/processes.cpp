@@ -7,7 +7,6 @@
 
 #ifdef PARODE_HAVE_MPI
 #include "comm.hpp"
-#include "mpi_domain.hpp"
 #endif
 
 namespace parode::cli {
@@ -57,13 +56,6 @@ Processes::Processes(int& argc, char**& argv) {
 Processes::~Processes() { g_current = nullptr; }
 
 Processes* Processes::current() { return g_current; }
-
-std::unique_ptr<Domain> Processes::make_domain([[maybe_unused]] const Scene& scene) const {
-#ifdef PARODE_HAVE_MPI
-    if (size_ > 1) return std::make_unique<mpi::MpiDomain>(scene, mpi_->comm);
-#endif
-    return std::make_unique<Domain>();
-}
 
 void Processes::abort(int code) const {
 #ifdef PARODE_HAVE_MPI

@@ -1,6 +1,6 @@
 // The processes of a run, as the command line sees them: under an MPI
 // launcher (mpirun, mpiexec, srun) MPI is initialised and a run on more than
-// one process gets the distributed domain; otherwise MPI is never touched
+// one process gets the distributed decomposition ("mpi" in the stage registry); otherwise MPI is never touched
 // and the run is one process. Only the root process prints and writes.
 // A failure that every process meets at the same point (a scene error, the
 // guard, a bad option) ends every process with its exit code; any other
@@ -13,7 +13,6 @@
 #include <memory>
 #include <string>
 
-#include "domain/domain.hpp"
 
 namespace parode::cli {
 
@@ -27,8 +26,6 @@ public:
     int rank() const { return rank_; }
     int size() const { return size_; }
     bool root() const { return rank_ == 0; }
-    // The domain of a run of `scene`: the distributed one on 2+ processes.
-    std::unique_ptr<Domain> make_domain(const Scene& scene) const;
     // Ends the run on every process (a failure only this one met).
     [[noreturn]] void abort(int code) const;
     // One line on what runs where, for --version and the report.

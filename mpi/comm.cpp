@@ -6,7 +6,7 @@
 #include <hdf5.h>
 #endif
 
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -7,10 +7,10 @@
 
 #include "domain/distribution.hpp"
 #include "partition.hpp"
-#include "run/diagnostics.hpp"
-#include "run/pipeline.hpp"
+#include "observe/diagnostics.hpp"
+#include "util/errors.hpp"
 #include "scene/toml_reader.hpp"
-#include "util/parallel.hpp"
+#include "exec/execution.hpp"
 #include "util/split_mix.hpp"
 
 namespace parode::mpi {
@@ -66,8 +66,8 @@ void sort_impulses(std::vector<WarmImpulse>& warm) { std::sort(warm.begin(), war
 
 }  // namespace
 
-MpiDomain::MpiDomain(const Scene& scene, const Comm& comm) : scene_(scene), comm_(comm), cells_(scene) {
-    nbr_index_.assign(static_cast<std::size_t>(comm.size()), -1);
+MpiDomain::MpiDomain(const Scene& scene, const Execution& exec) : scene_(scene), loops_(exec.loops()), cells_(scene) {
+    nbr_index_.assign(static_cast<std::size_t>(comm_.size()), -1);
 }
 
 void MpiDomain::check_scene(const Scene& sc, const std::string& /*collide*/, const std::string& solver) const {
@@ -267,10 +267,10 @@ void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, con
 // threads, since most owned bodies are held here alone and the scan reads
 // every one; the states are read only for the few that are not.
 std::vector<MpiDomain::Outgoing> MpiDomain::outgoing(const World& world) const {
-    const std::size_t n = world.body_count(), chunks = chunk_count(n, 4096);
+    const std::size_t n = world.body_count(), chunks = chunk_count(loops_, n, 4096);
     std::vector<std::vector<Outgoing>> part(chunks);
     const int me = rank();
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops_.run(chunks, n, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
             if (world.ghost(i)) continue;
             const DomainSlot& s = world.slot(i);
@@ -370,7 +370,7 @@ const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     if (s.cell == key && s.epoch == epoch_) return s;
     s.cell = key;
     s.owner = map_.owner(key);
-    s.holders = reinterpret_cast<std::uintptr_t>(&map_.holders(key));
+    s.holders = &map_.holders(key);
     s.epoch = epoch_;
     return s;
 }
@@ -388,7 +388,7 @@ void MpiDomain::locate_all(World& world) {
     moved_.resize(n);
     std::uint8_t* moved = moved_.data();
     const std::uint32_t stamp = stamp_, epoch = epoch_;
-    for_ranges(n, 4096, [&](std::size_t i0, std::size_t i1) {
+    for_ranges(loops_, n, 4096, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) {
             DomainSlot& s = world.slot(i);
             const bool current = s.epoch == epoch && s.cell == cells_.key(dBodyGetPosition(world.body(i)));
@@ -472,7 +472,7 @@ void MpiDomain::check_invariants(const World& world, long step) {
     msg << "step " << step << ": distributed invariant violated: " << counts[0] << " bodies owned of "
         << world.global_body_count() << (lost ? " (a body is lost or owned twice)" : "") << ", " << counts[1]
         << " ghosts of owned bodies, " << counts[2] << " bodies outside their owner's cells, " << counts[3]
-        << " ghosts that differ from their owners:" << all_text(os.str() + ghosts, ";");
+        << " ghosts that differ from their owners:" << collectives_.all_text(os.str() + ghosts, ";");
     throw SimulationError(msg.str());
 }
 
@@ -499,10 +499,10 @@ nlohmann::json MpiDomain::report() const {
             {"migrations", c[2]},
             {"repartitions", repartitions_},
             {"rebalance_threshold", scene_.parallel.rebalance_threshold},
-            {"comm_seconds", {{"min", min(seconds)}, {"max", Domain::max(seconds)}}},
+            {"comm_seconds", {{"min", collectives_.min(seconds)}, {"max", collectives_.max(seconds)}}},
             {"comm_bytes", c[1]},
             {"messages_per_step", steps_ ? static_cast<double>(messages) / static_cast<double>(steps_) / ranks() : 0.0},
-            {"setup_comm_seconds", {{"min", min(setup.seconds)}, {"max", Domain::max(setup.seconds)}}},
+            {"setup_comm_seconds", {{"min", collectives_.min(setup.seconds)}, {"max", collectives_.max(setup.seconds)}}},
             {"setup_comm_bytes", c[3]},
             {"cell_edge", cells_.edge()},
             {"cells", map_.mapped()}};

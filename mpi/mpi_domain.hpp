@@ -24,31 +24,19 @@
 #include "comm.hpp"
 #include "partition.hpp"
 #include "domain/cells.hpp"
-#include "domain/domain.hpp"
+#include "domain/decomposition.hpp"
+#include "exec/execution.hpp"
 #include "solve/contact_solver.hpp"
 #include "world/world.hpp"
 
 namespace parode::mpi {
 
-class MpiDomain final : public Domain, public CorrectionExchange {
+// The collectives of a run on MPI_COMM_WORLD, through Comm.
+class MpiCollectives final : public Collectives {
 public:
-    MpiDomain(const Scene& scene, const Comm& comm);
-    MpiDomain(Scene&&, const Comm&) = delete;  // keeps a reference to the scene
-
+    explicit MpiCollectives(const Comm& comm) : comm_(comm) {}
     int rank() const override { return comm_.rank(); }
     int ranks() const override { return comm_.size(); }
-    void check_scene(const Scene& scene, const std::string& collide, const std::string& solver) const override;
-    std::vector<std::uint32_t> initial_bodies(const Scene& scene) override;
-    std::vector<std::uint32_t> restart_bodies(const Scene& scene) const override;
-    void setup(World& world, std::vector<WarmImpulse>* warm) override;
-    void migrate(World& world, std::vector<WarmImpulse>* warm, long step) override;
-    void exchange_states(World& world) override;
-    void exchange_forces(World& world) override;
-    CorrectionExchange* corrections() override { return this; }
-    void check_invariants(const World& world, long step) override;
-    nlohmann::json report() const override;
-    std::string why() const override;
-
     void sum(std::int64_t* v, int n) const override { comm_.sum(v, n); }
     void sum_wrapping(std::uint64_t* v, int n) const override { comm_.sum_wrapping(v, n); }
     void max(double* v, int n) const override { comm_.max(v, n); }
@@ -63,6 +51,32 @@ public:
     void write_file(const std::string& path, const FilePieces& f) const override {
         comm_.write_file(path, f.head, f.records_at, f.record, f.gids, f.records, f.tail_at, f.tail);
     }
+    using Collectives::max;
+    using Collectives::sum;
+
+private:
+    const Comm& comm_;
+};
+
+// The "mpi" decomposition of the stage registry (mpi/stages.hpp).
+class MpiDomain final : public Decomposition, public CorrectionExchange {
+public:
+    // On MPI_COMM_WORLD; its loops on `exec`'s runner (which must outlive it).
+    MpiDomain(const Scene& scene, const Execution& exec);
+    MpiDomain(Scene&&, const Execution&) = delete;  // keeps a reference to the scene
+
+    const Collectives& collectives() const override { return collectives_; }
+    void check_scene(const Scene& scene, const std::string& collide, const std::string& solver) const override;
+    std::vector<std::uint32_t> initial_bodies(const Scene& scene) override;
+    std::vector<std::uint32_t> restart_bodies(const Scene& scene) const override;
+    void setup(World& world, std::vector<WarmImpulse>* warm) override;
+    void migrate(World& world, std::vector<WarmImpulse>* warm, long step) override;
+    void exchange_states(World& world) override;
+    void exchange_forces(World& world) override;
+    CorrectionExchange* corrections() override { return this; }
+    void check_invariants(const World& world, long step) override;
+    nlohmann::json report() const override;
+    std::string why() const override;
 
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
     void exchange(int colour, const CorrectionView& fc) override;
@@ -71,9 +85,6 @@ public:
     const CellMap& cell_map() const { return map_; }
     long migrations() const { return migrations_; }
     long repartitions() const { return repartitions_; }
-
-    using Domain::max;
-    using Domain::sum;
 
 private:
     // Message tags, one per kind of exchange.
@@ -98,14 +109,14 @@ private:
     }
     // Stops the run: neighbour j's correction message is not the size expected.
     [[noreturn]] void bad_message(std::size_t j, std::size_t got, std::size_t expected) const;
-    static const std::vector<int>& holders(const DomainSlot& s) {
-        return *reinterpret_cast<const std::vector<int>*>(s.holders);
-    }
+    static const std::vector<int>& holders(const DomainSlot& s) { return *s.holders; }
     double load_imbalance(const World& world, const std::vector<WarmImpulse>* warm) const;
     std::int64_t ghost_mismatches(const World& world, std::string& detail) const;
 
     const Scene& scene_;
-    const Comm& comm_;
+    const LoopRunner& loops_;
+    Comm comm_;
+    MpiCollectives collectives_{comm_};
     CellSpace cells_;
     CellMap map_;
     World* world_ = nullptr;

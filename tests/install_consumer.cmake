@@ -24,7 +24,7 @@ file(REMOVE_RECURSE "${WORK_DIR}")
 set(prefix "${WORK_DIR}/prefix")
 step("install" "${CMAKE_COMMAND}" --install "${BUILD_DIR}" --prefix "${prefix}")
 
-foreach(f bin/parode include/parode/omp/parallel_collide.hpp include/parode/collide/contacts.hpp
+foreach(f bin/parode include/parode/omp/grid/parallel_collide.hpp include/parode/collide/contacts.hpp
           include/parode/scene/scene.hpp)
   if(NOT EXISTS "${prefix}/${f}")
     message(FATAL_ERROR "not installed: ${f}")

@@ -28,7 +28,7 @@
 
 #include "cli_common.hpp"
 #include "scratch_dir.hpp"
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
 #include "scene/toml_reader.hpp"

@@ -16,8 +16,8 @@
 #include <cmath>
 #include <memory>
 
-#include "grid_collide.hpp"
-#include "register.hpp"
+#include "omp/grid/grid_collide.hpp"
+#include "omp/stages.hpp"
 #include "solve/contact_solver.hpp"
 #include "util/hash.hpp"
 #include "test_support.hpp"
@@ -28,11 +28,12 @@ namespace {
 
 // One world stepped by the project solver, with its own collider.
 struct Stepper {
+    std::unique_ptr<Execution> exec = Stages::instance().execution({});
     World world;
     omp::GridBackend collide;
     ContactSolver solver;
     ContactBuffer contacts;
-    Stepper(const Scene& sc, bool general_only) : world(sc, SpaceKind::Simple), solver(sc) {
+    Stepper(const Scene& sc, bool general_only) : world(sc, SpaceKind::Simple), collide(*exec), solver(sc, *exec) {
         collide.set_geoms(world.space(), &world.geoms());
         solver.set_general_only(general_only);
     }
@@ -74,7 +75,7 @@ double max_speed(const World& w) {
 }
 
 TEST(ContactRows, SphereRowsAndGeneralBlocksGiveTheSameMotion) {
-    omp::register_backends();
+    omp::add_stages();
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=343"});
     Stepper rows(sc, false), blocks(sc, true);
     for (int s = 0; s < 40; ++s) {
@@ -126,7 +127,7 @@ material = "m"
 )";
 
 TEST(ContactRows, SpheresAndBoxesMixBothFormsInOneSweep) {
-    omp::register_backends();
+    omp::add_stages();
     const Scene sc = load_scene_text(kMixed, "mixed");
     Stepper mixed(sc, false), blocks(sc, true);
     bool both = false;

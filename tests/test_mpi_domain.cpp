@@ -26,6 +26,7 @@ using namespace parode;
 namespace {
 
 const mpi::Comm* g_comm = nullptr;
+const Execution* g_exec = nullptr;  // one thread, the serial loops
 
 Scene slab() {
     return load_scene_text("[scene]\nname = \"slab\"\n[catoms]\ncount = 512\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\n", "slab");
@@ -36,7 +37,7 @@ Scene slab() {
 // (`with_warm` false) as for a solver that keeps none.
 struct SlabDomain {
     Scene sc = slab();
-    mpi::MpiDomain d{sc, *g_comm};
+    mpi::MpiDomain d{sc, *g_exec};
     std::vector<std::uint32_t> ids = d.initial_bodies(sc);
     World w{sc, SpaceKind::Simple, &ids};
     std::vector<WarmImpulse> warm;
@@ -74,7 +75,7 @@ TEST(MpiDomain, SetupGivesEveryBodyOneOwnerInItsCells) {
 // setup moves them to the owners of their cells.
 TEST(MpiDomain, BlocksOfIdsMoveToTheirOwnersAtSetup) {
     const Scene sc = slab();
-    mpi::MpiDomain d{sc, *g_comm};
+    mpi::MpiDomain d{sc, *g_exec};
     const std::vector<std::uint32_t> ids = d.restart_bodies(sc);
     World w{sc, SpaceKind::Simple, &ids};
     d.setup(w, nullptr);
@@ -204,6 +205,8 @@ int main(int argc, char** argv) {
     mpi::Session session(argc, argv);
     mpi::Comm comm;
     g_comm = &comm;
+    const Execution exec;
+    g_exec = &exec;
     ::testing::InitGoogleTest(&argc, argv);
     return RUN_ALL_TESTS();
 }

@@ -10,9 +10,9 @@
 #include <cmath>
 
 #include "collide/collide.hpp"
-#include "grid_collide.hpp"
+#include "omp/grid/grid_collide.hpp"
 #include "page_advice.hpp"
-#include "sphere_search.hpp"
+#include "omp/grid/sphere_search.hpp"
 #include "scene/scene_file.hpp"
 #include "test_support.hpp"
 #include "world/world.hpp"
@@ -126,16 +126,17 @@ TEST(NeighbourList, ATableOutOfIdOrderIsWalkedInIdOrder) {
 // loop, build after build while the spheres creep (radii of three sizes, so
 // that the reach differs from pair to pair).
 TEST(NeighbourList, TheVectorSearchBuildsTheScalarSearchsLists) {
-    if (!omp::set_search_avx2(true)) GTEST_SKIP() << "no AVX2 on this machine";
+    if (!omp::avx2_search()) GTEST_SKIP() << "no AVX2 on this machine";
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=3000"});
     World w(sc, SpaceKind::Simple);
     for (std::size_t i = 0; i < w.body_count(); i += 3) dGeomSphereSetRadius(w.geoms()[i], 0.9 * dGeomSphereGetRadius(w.geoms()[i]));
     for (std::size_t i = 1; i < w.body_count(); i += 7) dGeomSphereSetRadius(w.geoms()[i], 1.05 * dGeomSphereGetRadius(w.geoms()[i]));
-    omp::CollideEngine vec, scalar;
-    for (omp::CollideEngine* e : {&vec, &scalar}) {
-        e->set_threads(2);
-        e->set_geoms(w.space(), &w.geoms());
-    }
+    ExecutionConfig with_simd, without;
+    with_simd.threads = without.threads = 2;
+    without.simd = false;
+    const auto exec_vec = Stages::instance().execution(with_simd), exec_scalar = Stages::instance().execution(without);
+    omp::CollideEngine vec(exec_vec.get()), scalar(exec_scalar.get());
+    for (omp::CollideEngine* e : {&vec, &scalar}) e->set_geoms(w.space(), &w.geoms());
     std::size_t compared = 0;
     for (int call = 0; call < 16; ++call) {
         creep(w, call);
@@ -144,11 +145,8 @@ TEST(NeighbourList, TheVectorSearchBuildsTheScalarSearchsLists) {
             dBodySetPosition(dGeomGetBody(w.geoms()[7]), q[0] + 0.95, q[1], q[2]);
         }
         ContactBuffer a, b;
-        omp::set_search_avx2(true);
         vec.collide(w.space(), 4, a);
-        omp::set_search_avx2(false);
         scalar.collide(w.space(), 4, b);
-        omp::set_search_avx2(true);
         ASSERT_EQ(vec.list_counts().builds, scalar.list_counts().builds) << "call " << call;
         ASSERT_EQ(vec.list_digest(), scalar.list_digest()) << "call " << call;
         ASSERT_EQ(contact_digest(a), contact_digest(b)) << "call " << call;

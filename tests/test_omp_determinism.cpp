@@ -12,13 +12,15 @@
 
 #include <cstring>
 
-#include "geom_info.hpp"
-#include "run/diagnostics.hpp"
+#include "forces/magnets.hpp"
+#include "omp/forces/magnet_pass.hpp"
+#include "omp/grid/geom_info.hpp"
+#include "observe/diagnostics.hpp"
 #include "scene/scene_file.hpp"
 #include "util/exact_sum.hpp"
 #include "util/hash.hpp"
-#include "register.hpp"
-#include "team.hpp"
+#include "omp/stages.hpp"
+
 #include "test_support.hpp"
 
 using namespace parode;
@@ -44,11 +46,14 @@ TEST(ThreadCounts, ParallelMagnetGatherEqualsSerialGather) {
     field.prepare(p->world());
     std::vector<BodyWrench> serial(field.members().size());
     for (std::size_t k = 0; k < serial.size(); ++k) serial[k] = field.gather(k);
+    ASSERT_EQ(field.targets().size(), serial.size());  // one process: every member a target, in order
     for (int threads = 1; threads <= 4; ++threads) {
-        parode::omp::set_threads(threads);
-        parode::omp::set_min_parallel(0);
-        std::vector<BodyWrench> par;
-        gather_magnets(field, par);
+        ExecutionConfig config;
+        config.threads = threads;
+        config.min_parallel = 0;
+        const auto exec = Stages::instance().execution(config);
+        parode::omp::MagnetPassOmp pass(sc, *exec);
+        const std::vector<BodyWrench>& par = pass.wrenches(p->world());
         ASSERT_EQ(par.size(), serial.size());
         for (std::size_t k = 0; k < serial.size(); ++k) {
             ASSERT_EQ(0, std::memcmp(&par[k], &serial[k], sizeof(BodyWrench))) << "body " << k << ", " << threads << " threads";
@@ -127,37 +132,37 @@ TEST(ThreadCounts, ObservedContactFiguresEqualTheBuffersOwn) {
     }
     const double mean = sum.value() / static_cast<double>(items.size());
     for (int threads = 1; threads <= 3; ++threads) {
-        parode::omp::set_threads(threads);
-        parode::omp::set_min_parallel(0);
-        const Diagnostics d = observe(p->world(), p->contacts(), p->domain());
+        ExecutionConfig config;
+        config.threads = threads;
+        config.min_parallel = 0;
+        const auto exec = Stages::instance().execution(config);
+        const Diagnostics d = observe(p->world(), p->contacts(), p->collectives(), exec->loops());
         EXPECT_EQ(d.contacts, items.size()) << threads << " threads";
         EXPECT_EQ(d.max_penetration, deepest) << threads << " threads";
         EXPECT_EQ(d.mean_penetration, mean) << threads << " threads";
     }
-    parode::omp::set_min_parallel(-1);
 }
 
 }  // namespace
 
 namespace {
 
-// The parallel solver and grid on `threads` threads; `min_parallel` as set_min_parallel.
+// The parallel solver and grid on `threads` threads; `min_parallel` as
+// ExecutionConfig::min_parallel; `shared`: the team told before every step
+// that its cores are shared.
 std::string hash_with(const Scene& sc, int steps, int threads, long min_parallel, bool shared) {
-    parode::omp::register_backends();
-    parode::omp::set_threads(threads);
+    parode::omp::add_stages();
     RunOptions opt;
     opt.collide = "grid";
     opt.solver = "parallel";
-    opt.threads = threads;
+    opt.execution.threads = threads;
+    opt.execution.min_parallel = min_parallel;
     Pipeline p(sc, opt);
-    parode::omp::set_min_parallel(min_parallel);
     for (int s = 0; s < steps; ++s) {
-        if (shared) parode::omp::Team::instance().verdict(true);
+        if (shared) p.execution().team().verdict(true);
         p.step();
     }
     p.finish();
-    parode::omp::Team::instance().verdict(false);
-    parode::omp::set_min_parallel(-1);
     return hex64(p.last().state_hash);
 }
 
@@ -170,7 +175,7 @@ TEST(Thresholds, SerialBelowTheCrossoverAndOnSharedCoresGiveTheThreadedBits) {
 }
 
 TEST(Thresholds, SharedCoresBackOffOneTwoFourUpToSixteenSteps) {
-    parode::omp::Team team;
+    Team team(2, -1, true);
     EXPECT_TRUE(team.try_threads());
     std::vector<int> alone;
     for (int round = 0; round < 7; ++round) {

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "forces/controller.hpp"
+#include "forces/magnets.hpp"
 #include "test_support.hpp"
 
 using namespace parode;

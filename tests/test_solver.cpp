@@ -10,7 +10,7 @@
 #include <cmath>
 
 #include "util/hash.hpp"
-#include "register.hpp"
+#include "omp/stages.hpp"
 #include "test_support.hpp"
 
 using namespace parode;

@@ -1,7 +1,7 @@
 // Test helpers (see test_support.hpp).
 #include "test_support.hpp"
 
-#include "register.hpp"
+#include "omp/stages.hpp"
 
 namespace parode::test {
 
@@ -13,13 +13,12 @@ Scene repo_scene(const std::string& rel, const std::vector<std::string>& sets) {
 
 std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& collide, int threads,
                               const std::string& solver, bool force_parallel) {
-    parode::omp::register_backends();
-    parode::omp::set_threads(threads);
-    parode::omp::set_min_parallel(force_parallel ? 0 : -1);
+    parode::omp::add_stages();
     RunOptions opt;
     opt.collide = collide;
     opt.solver = solver;
-    opt.threads = threads;
+    opt.execution.threads = threads;
+    opt.execution.min_parallel = force_parallel ? 0 : -1;
     auto p = std::make_unique<Pipeline>(scene, opt);
     for (int s = 0; s < steps; ++s) p->step();
     p->finish();

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "run/pipeline.hpp"
+#include "run/stages.hpp"
 #include "scene/scene_file.hpp"
 
 namespace parode::test {

@@ -20,6 +20,8 @@ using namespace parode;
 
 namespace {
 
+const LoopRunner kSerial;  // the serial runner: the layout's order never depends on it
+
 struct Case {
     std::vector<std::uint64_t> cell;
     std::vector<std::uint32_t> gid, owner;
@@ -88,7 +90,7 @@ TEST(SweepLayout, RandomBodiesCellsAndContactsDense) {
     for (int trial = 0; trial < 200; ++trial) {
         const Case c = random_case(rng, 1 + rng() % 6);
         SweepLayout L;
-        L.build(c.input());
+        L.build(c.input(), kSerial);
         check(c, L);
         if (HasFatalFailure()) return;
     }
@@ -99,12 +101,12 @@ TEST(SweepLayout, SparseBoxGivesTheDenseOrder) {
     for (int trial = 0; trial < 100; ++trial) {
         Case c = random_case(rng, 4);
         SweepLayout dense;
-        dense.build(c.input());
+        dense.build(c.input(), kSerial);
         const std::vector<std::uint32_t> order = dense.order();
         c.cell.push_back(c.cell[0] + 4000);  // one far body: more than 8 cells per body in the box
         c.gid.push_back(1u << 30);
         SweepLayout sparse;
-        sparse.build(c.input());
+        sparse.build(c.input(), kSerial);
         check(c, sparse);
         if (HasFatalFailure()) return;
         std::vector<std::uint32_t> without;

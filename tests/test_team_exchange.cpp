@@ -12,11 +12,11 @@
 #include <stdexcept>
 #include <thread>
 
-#include "domain/domain.hpp"
-#include "register.hpp"
+#include "domain/decomposition.hpp"
+#include "omp/stages.hpp"
 #include "run/pipeline.hpp"
 #include "solve/contact_solver.hpp"
-#include "team.hpp"
+
 #include "test_support.hpp"
 
 using namespace parode;
@@ -35,35 +35,33 @@ public:
     int fail_at = -1;  // the call that throws (-1: none)
 };
 
-class SlowDomain : public Domain {
+class SlowDomain : public Decomposition {
 public:
     CorrectionExchange* corrections() override { return &exchange; }
     SlowExchange exchange;
 };
 
-RunOptions two_threads(Domain& domain) {
+// Every stage threaded at this size (min_parallel 0), sharing verdicts on.
+RunOptions two_threads(Decomposition& domain) {
     RunOptions opt;
     opt.collide = "grid";
     opt.solver = "parallel";
-    opt.threads = 2;
-    opt.domain = &domain;
+    opt.execution.threads = 2;
+    opt.execution.min_parallel = 0;
+    opt.decomposition = &domain;
     return opt;
 }
 
 TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
-    omp::register_backends();
-    omp::set_threads(2);
+    omp::add_stages();
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
     SlowDomain domain;
     Pipeline p(sc, two_threads(domain));
-    omp::set_min_parallel(0);  // every stage threaded at this size
     int threaded = 0;
     for (int s = 0; s < 5; ++s) {
         p.step();
-        if (!omp::Team::instance().shared()) ++threaded;
+        if (!p.execution().team().shared()) ++threaded;
     }
-    omp::Team::instance().verdict(false);
-    omp::set_min_parallel(-1);
     EXPECT_GT(domain.exchange.calls, 5 * 8 * 2) << "the exchange ran after every colour of every pass";
     // Counting the exchange's waits sends every step to one thread (0 of 5).
     // A virtual machine's host may still take a core for a millisecond now
@@ -77,16 +75,12 @@ TEST(Team, WaitsForOtherProcessesAreNotSharedCores) {
 // thread has left the parallel region: it may not escape the region itself,
 // which would end the process on a signal.
 TEST(Team, AnExchangeErrorInTheThreadedSweepReachesTheCaller) {
-    omp::register_backends();
-    omp::set_threads(2);
+    omp::add_stages();
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
     SlowDomain domain;
     domain.exchange.fail_at = 20;
     Pipeline p(sc, two_threads(domain));
-    omp::set_min_parallel(0);
     EXPECT_THROW(p.step(), std::runtime_error);
-    omp::Team::instance().verdict(false);
-    omp::set_min_parallel(-1);
     EXPECT_EQ(domain.exchange.calls, 20);
 }
 

@@ -69,17 +69,13 @@ void collide2_reference(dGeomID geom, dSpaceID space, int max_contacts, ContactB
     out.sort_canonical();
 }
 
-BackendRegistry::BackendRegistry() : Registry("collision backend") {
-    add("ode-hash", [] { return std::make_unique<OdeSpaceBackend>("ode-hash", SpaceKind::Hash); });
-    add("ode-sap", [] {
-        return std::make_unique<OdeSpaceBackend>("ode-sap", SpaceKind::SweepAndPrune);
-    });
-    add("ode-simple", [] { return std::make_unique<OdeSpaceBackend>("ode-simple", SpaceKind::Simple); });
-}
-
-BackendRegistry& BackendRegistry::instance() {
-    static BackendRegistry registry;
-    return registry;
+void add_reference_backends(CollideRegistry& r) {
+    r.add("ode-hash", [](Execution&) { return std::make_unique<OdeSpaceBackend>("ode-hash", SpaceKind::Hash); }, {},
+          "ODE's hash space (dSpaceCollide), serial: the reference");
+    r.add("ode-sap", [](Execution&) { return std::make_unique<OdeSpaceBackend>("ode-sap", SpaceKind::SweepAndPrune); },
+          {}, "ODE's sweep-and-prune space, serial");
+    r.add("ode-simple", [](Execution&) { return std::make_unique<OdeSpaceBackend>("ode-simple", SpaceKind::Simple); },
+          {}, "ODE's simple space (all pairs), serial");
 }
 
 }  // namespace parode

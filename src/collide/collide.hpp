@@ -1,8 +1,8 @@
 // The collide stage's interface and the reference backends built on ODE's spaces.
 // A backend fills a ContactBuffer with every contact of a space, in canonical
 // order. The references (ode-hash, ode-sap, ode-simple) run ODE's own serial
-// dSpaceCollide with a near-callback that only collects contacts; parallel
-// backends live in omp/ and register themselves in the registry below.
+// dSpaceCollide with a near-callback that only collects contacts; the grid
+// backends live in omp/ and omp::add_stages adds them to the stage registry.
 // Trade-off: the reference sorts contacts after collection, which costs a little
 // but makes every backend's output directly comparable, bit for bit.
 #pragma once
@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "collide/contacts.hpp"
+#include "exec/execution.hpp"
 #include "util/registry.hpp"
-#include "util/scratch_pool.hpp"
 #include "util/substages.hpp"
 
 namespace parode {
@@ -62,8 +62,6 @@ public:
     // Every contact between geoms of `space` (recursing into nested spaces), in
     // canonical order. `max_contacts` bounds the contacts of one pair.
     virtual void collide(dSpaceID space, int max_contacts, ContactBuffer& out) = 0;
-    // Threads the backend may use (1 for serial backends).
-    virtual void set_threads(int /*threads*/) {}
     // A hint: `space` holds exactly these geoms and no nested space (World's
     // flat space), so a backend may read them without walking ODE's list.
     // The pointer must stay valid while the backend collides that space.
@@ -75,9 +73,6 @@ public:
     // Counts the backend keeps over the run (name, count), for the run report;
     // every process of a run gives the same names in the same order.
     virtual std::vector<std::pair<std::string, std::int64_t>> counts() const { return {}; }
-    // A pool for the per-call tables, shared with stages that run at other
-    // times of the step (util/scratch_pool.hpp).
-    virtual void set_scratch(ScratchPool* /*pool*/) {}
     // True when the backend takes a sphere's AABB (no offset) from its current
     // position and radius, never from ODE's cached AABB: sphere bodies may
     // then move without ODE's spaces being told every step (World::defer_moves).
@@ -88,14 +83,11 @@ public:
     virtual bool set_ghost_test(const GhostTest* /*test*/) { return false; }
 };
 
-// Name -> factory. The reference backends are always present; omp/ adds more.
-class BackendRegistry : public Registry<CollideBackend> {
-public:
-    static BackendRegistry& instance();
-
-private:
-    BackendRegistry();
-};
+// Name -> factory, in the stage registry (run/stages.hpp). A backend takes
+// its threads, crossovers and scratch pool from the pipeline's execution.
+using CollideRegistry = Registry<CollideBackend, Execution&>;
+// Adds the references: ode-hash, ode-sap, ode-simple.
+void add_reference_backends(CollideRegistry& registry);
 
 // Reference collision through ODE's own dSpaceCollide (exposed for tests).
 void collide_space_reference(dSpaceID space, int max_contacts, ContactBuffer& out);

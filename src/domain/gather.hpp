@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -25,7 +25,7 @@ namespace parode {
 // `only` (sorted gids) restricts the gather to those bodies (rows of the
 // others stay NaN).
 template <class Row>
-std::vector<double> gather_rows(const Domain& domain, const World& world, int width, Row row,
+std::vector<double> gather_rows(const Collectives& domain, const World& world, int width, Row row,
                                 const std::vector<std::uint32_t>* only = nullptr) {
     const std::size_t w = static_cast<std::size_t>(width);
     const std::size_t rec = sizeof(std::uint32_t) + w * sizeof(double);
@@ -76,7 +76,7 @@ inline std::size_t block_of(const std::vector<std::uint64_t>& ends, std::uint32_
 // its rows in place; several pack (gid, row) records per destination, sized
 // exactly, and exchange them in one all-to-all.
 template <class Row>
-std::vector<double> block_rows(const Domain& domain, const World& world, int width, Row row) {
+std::vector<double> block_rows(const Collectives& domain, const World& world, int width, Row row) {
     const std::size_t w = static_cast<std::size_t>(width);
     const IdBlock mine = id_block(world.global_body_count(), domain.rank(), domain.ranks());
     std::vector<double> rows(mine.count * w, std::nan(""));
@@ -120,7 +120,7 @@ std::vector<double> block_rows(const Domain& domain, const World& world, int wid
 }
 
 // The root's text on every process.
-inline std::string from_root(const Domain& domain, const std::string& text) {
+inline std::string from_root(const Collectives& domain, const std::string& text) {
     const std::vector<char> mine = domain.root() ? std::vector<char>(text.begin(), text.end()) : std::vector<char>{};
     const auto parts = domain.all_gather(mine);
     return std::string(parts.front().begin(), parts.front().end());

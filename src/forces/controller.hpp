@@ -14,6 +14,7 @@
 // wheel slip and the ramp do; the speed is the schedule's plus a small
 // catch-up term, not exactly the sine.
 #pragma once
+#include "forces/force_pass.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -33,5 +34,16 @@ double eight_length(const ControllerSpec& c);
 // Target pose `distance` metres along the track.
 TrackPoint track_point(const ControllerSpec& c, double distance);
 void apply_controller(World& world, const ControllerSpec& c, double t);
+
+// The "controller" force pass: apply_controller with the scene's [controller].
+class ControllerPass final : public ForcePass {
+public:
+    explicit ControllerPass(const Scene& scene) : spec_(scene.controller) {}
+    std::string name() const override { return "controller"; }
+    void apply(World& world, double time) override { apply_controller(world, spec_, time); }
+
+private:
+    const ControllerSpec& spec_;
+};
 
 }  // namespace parode

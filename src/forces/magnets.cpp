@@ -119,21 +119,17 @@ void MagnetField::apply(World& world, const std::vector<BodyWrench>& wrenches) c
     }
 }
 
-namespace {
-
-void gather_serial(const MagnetField& field, std::vector<BodyWrench>& out) {
+void MagnetPass::gather_all(const MagnetField& field, std::vector<BodyWrench>& out) const {
     for (std::size_t j = 0; j < field.targets().size(); ++j) out[j] = field.gather(field.targets()[j]);
 }
 
-MagnetGatherFn g_gather = &gather_serial;
-
-}  // namespace
-
-void set_magnet_gather(MagnetGatherFn fn) { g_gather = fn ? fn : &gather_serial; }
-
-void gather_magnets(const MagnetField& field, std::vector<BodyWrench>& out) {
-    out.resize(field.targets().size());
-    g_gather(field, out);
+const std::vector<BodyWrench>& MagnetPass::wrenches(const World& world) {
+    field_.prepare(world);
+    wrenches_.resize(field_.targets().size());
+    gather_all(field_, wrenches_);
+    return wrenches_;
 }
+
+void MagnetPass::apply(World& world, double /*time*/) { field_.apply(world, wrenches(world)); }
 
 }  // namespace parode

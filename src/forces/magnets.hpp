@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "forces/force_pass.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -63,10 +64,26 @@ private:
     double reach2_ = 1.0;  // max centre distance^2 for any pole pair to interact
 };
 
-// Gather the wrench of every target into `out` (sized to targets()). The
-// default is a serial loop; omp/ installs a parallel one with identical results.
-using MagnetGatherFn = void (*)(const MagnetField& field, std::vector<BodyWrench>& out);
-void set_magnet_gather(MagnetGatherFn fn);
-void gather_magnets(const MagnetField& field, std::vector<BodyWrench>& out);
+// The "magnets" force pass: prepare the field, gather every target's wrench
+// (gather_all: a serial loop here; "magnets/omp" overrides it with an OpenMP
+// loop of identical results), apply the wrenches in target order.
+class MagnetPass : public ForcePass {
+public:
+    explicit MagnetPass(const Scene& scene) : field_(scene) {}
+    std::string name() const override { return "magnets"; }
+    void apply(World& world, double time) override;
+    // The field prepared for `world` and every target's wrench, without
+    // applying them (apply does this, then applies).
+    const std::vector<BodyWrench>& wrenches(const World& world);
+    const MagnetField& field() const { return field_; }
+
+protected:
+    // Fills out[j] = field.gather(targets[j]) for every target j.
+    virtual void gather_all(const MagnetField& field, std::vector<BodyWrench>& out) const;
+
+private:
+    MagnetField field_;
+    std::vector<BodyWrench> wrenches_;
+};
 
 }  // namespace parode

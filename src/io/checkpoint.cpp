@@ -96,7 +96,7 @@ std::vector<char> piece_index(const std::vector<WarmImpulse>* warm, std::uint64_
 }
 
 // Every process's piece, in file order, as the header's "impulse_index".
-nlohmann::json impulse_index(const Domain& domain, const std::vector<WarmImpulse>* warm, std::uint64_t block) {
+nlohmann::json impulse_index(const Collectives& domain, const std::vector<WarmImpulse>* warm, std::uint64_t block) {
     nlohmann::json pieces = nlohmann::json::array();
     for (const std::vector<char>& bytes : domain.all_gather(piece_index(warm, block))) {
         std::vector<std::uint64_t> v(bytes.size() / sizeof(std::uint64_t));
@@ -134,7 +134,7 @@ void check_index(const nlohmann::json& index, std::uint64_t impulses) {
 
 }  // namespace
 
-void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
+void write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta) {
     FilePieces f;
     f.record = kRecordBytes;

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 #include "solve/contact_solver.hpp"
 #include "world/world.hpp"
 
@@ -53,7 +53,7 @@ struct Checkpoint {
 
 // Collective: writes every process's owned bodies and impulses, with `meta`
 // (the root's) completed by counts. Throws std::runtime_error naming the file.
-void write_checkpoint(const std::string& path, const Domain& domain, const World& world,
+void write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta);
 // The header of a checkpoint. Throws std::runtime_error naming the file and
 // what is wrong with it.

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <type_traits>
 
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 
 namespace parode::h5 {
 namespace {
@@ -58,7 +58,7 @@ void Id::reset() {
     id_ = H5I_INVALID_HID;
 }
 
-File::File(const std::string& path, const Domain& domain) : path_(path) {
+File::File(const std::string& path, const Collectives& domain) : path_(path) {
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with HDF5's reason
     Id access(check(H5Pcreate(H5P_FILE_ACCESS), "file access list"), H5Pclose);
     transfer_ = Id(check(H5Pcreate(H5P_DATASET_XFER), "transfer list"), H5Pclose);

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 
 namespace parode::h5 {
 
@@ -48,7 +48,7 @@ enum class Type { F64, F32, I64 };
 class File {
 public:
     // Creates (truncates) `path`; collective over `domain`.
-    File(const std::string& path, const Domain& domain);
+    File(const std::string& path, const Collectives& domain);
     // Collective; the object handles must be closed first. Throws on failure.
     void close();
 

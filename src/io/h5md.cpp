@@ -71,7 +71,7 @@ const BodySpec& spec_of(const Scene& scene, std::size_t gid) {
 std::int64_t species(const BodySpec& b) { return b.catom ? 0 : 1 + static_cast<std::int64_t>(b.shape.kind); }
 
 // The bodies' bounding spheres at the current state and the static geoms.
-Extent scene_extent(const Scene& scene, const World& world, const Domain& domain) {
+Extent scene_extent(const Scene& scene, const World& world, const Collectives& domain) {
     Extent e = statics_extent(scene);
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
@@ -86,7 +86,7 @@ Extent scene_extent(const Scene& scene, const World& world, const Domain& domain
 
 class H5md final : public SnapshotWriter {
 public:
-    H5md(const std::string& path, const Scene& scene, const World& world, const Domain& domain);
+    H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain);
     ~H5md() override;
     void write(const World& world, long step, double time) override;
     void close() override;
@@ -103,7 +103,7 @@ private:
     void write_whole(const h5::Id& parent, const std::string& name, Type type, std::vector<hsize_t> dims, const void* data);
 
     const Scene& scene_;
-    const Domain& domain_;
+    const Collectives& domain_;
     std::string xdmf_;
     h5::File file_;
     IdBlock block_;
@@ -112,7 +112,7 @@ private:
     XdmfLayout layout_;
 };
 
-H5md::H5md(const std::string& path, const Scene& scene, const World& world, const Domain& domain)
+H5md::H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain)
     : scene_(scene), domain_(domain), xdmf_(xdmf_path(path)), file_(path, domain),
       block_(id_block(world.global_body_count(), domain.rank(), domain.ranks())) {
     const Extent extent = scene_extent(scene, world, domain);
@@ -270,7 +270,7 @@ void H5md::close() {
 }  // namespace
 
 std::unique_ptr<SnapshotWriter> make_h5md_writer(const std::string& path, const Scene& scene, const World& world,
-                                                 const Domain& domain) {
+                                                 const Collectives& domain) {
     return std::make_unique<H5md>(path, scene, world, domain);
 }
 

@@ -36,7 +36,7 @@ namespace parode {
 
 // Collective; creates the file and its XDMF, writes nothing of the state yet.
 std::unique_ptr<SnapshotWriter> make_h5md_writer(const std::string& path, const Scene& scene, const World& world,
-                                                 const Domain& domain);
+                                                 const Collectives& domain);
 // The HDF5 library: "1.10.8 parallel" or "1.10.8 serial".
 std::string h5md_library();
 

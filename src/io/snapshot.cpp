@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "domain/gather.hpp"
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 #ifdef PARODE_HAVE_HDF5
 #include "io/h5md.hpp"
 #endif
@@ -17,7 +17,7 @@ namespace {
 // One line per body and frame; the root writes what every process sends it.
 class CsvWriter final : public SnapshotWriter {
 public:
-    CsvWriter(const std::string& path, const Domain& domain) : path_(path), domain_(domain) {
+    CsvWriter(const std::string& path, const Collectives& domain) : path_(path), domain_(domain) {
         if (!domain_.root()) return;
         out_.open(path);
         if (!out_) throw OutputError(path + ": cannot open snapshot file for writing");
@@ -42,7 +42,7 @@ public:
 
 private:
     std::string path_;
-    const Domain& domain_;
+    const Collectives& domain_;
     std::ofstream out_;
 };
 
@@ -65,7 +65,7 @@ std::string hdf5_version() {
 }
 
 std::unique_ptr<SnapshotWriter> make_snapshot_writer(const std::string& path, const Scene& scene, const World& world,
-                                                     const Domain& domain, long step, double time) {
+                                                     const Collectives& domain, long step, double time) {
     std::unique_ptr<SnapshotWriter> w;
     if (is_h5md_path(path)) {
 #ifdef PARODE_HAVE_HDF5

@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 #include "scene/scene.hpp"
 #include "world/world.hpp"
 
@@ -33,6 +33,6 @@ std::string hdf5_version();
 // (collective). Throws OutputError when a file cannot be written, and
 // std::invalid_argument for an H5MD name in a build without HDF5.
 std::unique_ptr<SnapshotWriter> make_snapshot_writer(const std::string& path, const Scene& scene, const World& world,
-                                                     const Domain& domain, long step, double time);
+                                                     const Collectives& domain, long step, double time);
 
 }  // namespace parode

@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "domain/gather.hpp"
-#include "io/report.hpp"
+#include "run/report.hpp"
 
 namespace parode {
 namespace {
@@ -57,7 +57,7 @@ Trajectory make_trajectory(const Scene& scene) {
     return t;
 }
 
-Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Domain& domain) {
+Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Collectives& domain) {
     Frame f;
     f.step = step;
     f.time = time;

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "domain/domain.hpp"
-#include "io/output_error.hpp"  // write_trajectory throws it
-#include "run/diagnostics.hpp"
+#include "domain/collectives.hpp"
+#include "util/errors.hpp"  // write_trajectory throws it
+#include "observe/diagnostics.hpp"
 #include "scene/scene.hpp"
 #include "world/world.hpp"
 
@@ -48,7 +48,7 @@ struct Trajectory {
 Trajectory make_trajectory(const Scene& scene);
 // Collective: the frame of the current state; positions (in gid order) only
 // on the root process, which is the one that writes trajectories.
-Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Domain& domain);
+Frame capture_frame(const World& world, const Diagnostics& d, long step, double time, const Collectives& domain);
 
 // Both throw std::runtime_error naming the file.
 void write_trajectory(const std::string& path, const Trajectory& t);

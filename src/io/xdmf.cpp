@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "io/output_error.hpp"
+#include "util/errors.hpp"
 
 namespace parode {
 namespace {

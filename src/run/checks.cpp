@@ -27,7 +27,7 @@ double max_displacement(const Trajectory& start, const Frame& now) {
 }
 
 // Collective: the largest speed of any body.
-double max_speed(const World& world, const Domain& domain) {
+double max_speed(const World& world, const Collectives& domain) {
     double out = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
@@ -38,7 +38,7 @@ double max_speed(const World& world, const Domain& domain) {
 }
 
 // Collective: positions in gid order on the root (of `only`, when given).
-std::vector<double> positions(const World& world, const Domain& domain, const std::vector<std::uint32_t>* only = nullptr) {
+std::vector<double> positions(const World& world, const Collectives& domain, const std::vector<std::uint32_t>* only = nullptr) {
     return gather_rows(domain, world, 3, [&world](std::size_t i, double* out) {
         const dReal* x = dBodyGetPosition(world.body(i));
         for (int c = 0; c < 3; ++c) out[c] = x[c];
@@ -63,7 +63,7 @@ void position_items(const Scene& sc, const Frame& now, const std::vector<Vec3>& 
 
 // The start frame holds every body's initial position (its origin, which a
 // restarted run carries over), so displacement and footprint refer to step 0.
-Checker::Checker(const World& world, const Diagnostics& initial, const Domain& domain)
+Checker::Checker(const World& world, const Diagnostics& initial, const Collectives& domain)
     : scene_(world.scene()), domain_(domain), start_(make_trajectory(world.scene())), initial_energy_(initial.energy()) {
     Frame f = capture_frame(world, initial, 0, 0.0, domain);
     f.positions = gather_rows(domain, world, 3, [&world](std::size_t i, double* out) {

@@ -14,14 +14,14 @@
 #pragma once
 #include <nlohmann/json.hpp>
 
-#include "domain/domain.hpp"
+#include "domain/collectives.hpp"
 #include "io/trajectory.hpp"
 
 namespace parode {
 
 class Checker {
 public:
-    Checker(const World& world, const Diagnostics& initial, const Domain& domain);
+    Checker(const World& world, const Diagnostics& initial, const Collectives& domain);
     void observe(const World& world, const Diagnostics& d);
     // {passed, items: [{name, value, bound, passed}]} for the state of `world` now.
     nlohmann::json result(const World& world, const Diagnostics& last) const;
@@ -31,7 +31,7 @@ public:
 
 private:
     const Scene& scene_;
-    const Domain& domain_;
+    const Collectives& domain_;
     Trajectory start_;  // root: the initial frame, for displacement and footprint
     std::vector<std::uint32_t> checked_;  // gids of the position checks, sorted
     double initial_energy_ = 0;

@@ -13,14 +13,9 @@
 
 #include "scene/scene.hpp"
 #include "scene/scene_file.hpp"
+#include "util/errors.hpp"
 
 namespace parode {
-
-// A run refused because its estimate exceeds the memory available.
-class MemoryError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
 
 // What a run's memory grows with.
 struct SceneSize {

@@ -5,9 +5,9 @@
 
 #include "domain/gather.hpp"
 #include "io/checkpoint.hpp"
-#include "util/hash.hpp"
-#include "forces/controller.hpp"
 #include "run/stage_plan.hpp"
+#include "run/stages.hpp"
+#include "util/hash.hpp"
 
 namespace parode {
 
@@ -17,13 +17,13 @@ const char* stage_name(Stage s) {
     return names[static_cast<int>(s)];
 }
 
-Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene) {
-    if (!options.domain) own_domain_ = std::make_unique<Domain>();
-    domain_ = options.domain ? options.domain : own_domain_.get();
+Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
+    : scene_(scene), exec_(Stages::instance().execution(options.execution)) {
+    const Stages& stages = Stages::instance();
+    if (!options.decomposition) own_domain_ = stages.domain.make(options.domain, scene, *exec_);
+    domain_ = options.decomposition ? options.decomposition : own_domain_.get();
     domain_->check_scene(scene, options.collide, options.solver);
-    backend_ = BackendRegistry::instance().make(options.collide);
-    backend_->set_threads(options.threads);
-    backend_->set_scratch(&scratch_);
+    backend_ = stages.collide.make(options.collide, *exec_);
     const std::vector<std::uint32_t> gids =
         options.restart_path.empty() ? domain_->initial_bodies(scene) : domain_->restart_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
@@ -44,12 +44,11 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
         backend_drops_ghosts_ = backend_->set_ghost_test(&ghost_test_);
     }
     world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
-    solver_ = SolverRegistry::instance().make(options.solver, scene, options.threads);
+    solver_ = stages.solver.make(options.solver, scene, *exec_);
     solver_->set_exchange(domain_->corrections());
-    solver_->set_scratch(&scratch_);
     if (!options.restart_path.empty()) restore(options.restart_path, gids);
     plan_stages(scene, options);
-    if (stage(Stage::Forces).enabled && scene.any_magnets()) magnets_ = std::make_unique<MagnetField>(scene);
+    if (stage(Stage::Forces).enabled) make_force_passes();
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
 #ifdef NDEBUG
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
@@ -60,16 +59,26 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options) : scene_(scene
     const double collide_before = stages_[static_cast<int>(Stage::Collide)].seconds;
     timed(Stage::Collide, [this] { run_collide(); });
     setup_collide_s_ = stages_[static_cast<int>(Stage::Collide)].seconds - collide_before;
-    initial_ = observe(*world_, contacts_, *domain_);
+    initial_ = observe(*world_, contacts_, collectives(), exec_->loops());
     last_ = initial_;
-    guard_ = std::make_unique<Guard>(*world_, initial_, *domain_, options.dump_path);
-    if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_, *domain_);
+    guard_ = std::make_unique<Guard>(*world_, initial_, collectives(), exec_->loops(), options.dump_path);
+    if (scene.checks.any()) checker_ = std::make_unique<Checker>(*world_, initial_, collectives());
     if (!restart_meta_.is_null()) restore_run_state(restart_meta_.at("run"));
     if (options.record_trajectory) {
         trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
-        trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, *domain_));
+        trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, collectives()));
     }
-    timed(Stage::Output, [&] { snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, *domain_, steps_, steps_ * scene.dt); });
+    timed(Stage::Output, [&] {
+        snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, collectives(), steps_, steps_ * scene.dt);
+    });
+}
+
+// The passes the scene needs, in order: magnets, then the controller; each
+// the threaded variant where one is built.
+void Pipeline::make_force_passes() {
+    const ForceRegistry& r = Stages::instance().forces;
+    if (scene_.any_magnets()) forces_.push_back(r.make(Stages::threaded(r, "magnets"), scene_, *exec_));
+    if (scene_.controller.enabled) forces_.push_back(r.make(Stages::threaded(r, "controller"), scene_, *exec_));
 }
 
 // Bodies from the checkpoint (this process's initial ids), ODE's dRand, the
@@ -93,9 +102,9 @@ void Pipeline::restore(const std::string& path, const std::vector<std::uint32_t>
         world_->set_origin(local, records[k].origin);
         if (!records[k].enabled) dBodyDisable(world_->body(local));
     }
-    inexact_ = domain_->sum(inexact);
+    inexact_ = collectives().sum(inexact);
     if (auto* warm = solver_->warm_impulses()) *warm = read_impulses(c, gids);
-    dRandSetSeed(m.at("drand_seed").get<unsigned long>());
+    world_->set_drand_seed(m.at("drand_seed").get<unsigned long>());
     steps_ = first_step_ = static_cast<int>(c.step);
     last_observed_ = steps_;
     restart_meta_ = m;
@@ -124,7 +133,7 @@ void Pipeline::restore_run_state(const nlohmann::json& run) {
 }
 
 void Pipeline::write_checkpoint(const std::string& path) const {
-    const std::int64_t contacts = domain_->sum(static_cast<std::int64_t>(totals_.contacts));
+    const std::int64_t contacts = collectives().sum(static_cast<std::int64_t>(totals_.contacts));
     nlohmann::json run = {{"totals", {{"contacts", contacts}, {"max_penetration", totals_.max_penetration},
                                       {"penetration_sum", totals_.penetration_sum},
                                       {"observed_contacts", totals_.observed_contacts}}},
@@ -133,8 +142,8 @@ void Pipeline::write_checkpoint(const std::string& path) const {
     const nlohmann::json meta = {{"step", steps_}, {"time", steps_ * scene_.dt}, {"dt", scene_.dt},
                                  {"scene", scene_.name}, {"scene_file", scene_.source},
                                  {"scene_digest", hex64(scene_.digest)}, {"seed", scene_.seed},
-                                 {"drand_seed", dRandGetSeed()}, {"solver", solver_->name()}, {"run", run}};
-    parode::write_checkpoint(path, *domain_, *world_, solver_->warm_impulses(), meta);
+                                 {"drand_seed", world_->drand_seed()}, {"solver", solver_->name()}, {"run", run}};
+    parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta);
 }
 
 const Substages* Pipeline::substages(Stage s) const {
@@ -206,12 +215,7 @@ void Pipeline::finish() {
 void Pipeline::run_migrate() { domain_->migrate(*world_, solver_->warm_impulses(), steps_); }
 
 void Pipeline::run_forces() {
-    if (magnets_) {
-        magnets_->prepare(*world_);
-        gather_magnets(*magnets_, wrenches_);
-        magnets_->apply(*world_, wrenches_);
-    }
-    if (scene_.controller.enabled) apply_controller(*world_, scene_.controller, steps_ * scene_.dt);
+    for (auto& pass : forces_) pass->apply(*world_, steps_ * scene_.dt);
 }
 
 void Pipeline::run_collide() {
@@ -229,14 +233,14 @@ void Pipeline::run_joints() {
 void Pipeline::run_solve() { solver_->step(*world_, contacts_); }
 
 void Pipeline::run_observe() {
-    last_ = observe(*world_, contacts_, *domain_);
+    last_ = observe(*world_, contacts_, collectives(), exec_->loops());
     last_observed_ = steps_;
     totals_.max_penetration = std::max(totals_.max_penetration, last_.max_penetration);
     totals_.penetration_sum += last_.mean_penetration * static_cast<double>(last_.contacts);
     totals_.observed_contacts += last_.contacts;
     guard_->check_observed(*world_, last_, steps_);
     if (checker_) checker_->observe(*world_, last_);
-    if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt, *domain_));
+    if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt, collectives()));
 }
 
 void Pipeline::run_output() { snapshot_->write(*world_, steps_, steps_ * scene_.dt); }

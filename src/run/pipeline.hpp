@@ -1,12 +1,14 @@
 // The step pipeline: migrate -> exchange -> forces -> collide -> joints ->
 // solve -> observe -> output, each stage timed, each enabled only when the
 // scene and the domain need it (the reason is recorded for the run report).
-// Stage implementations are chosen at run time: the collide backend and the
-// solver from their registries, the magnet gather from magnets.hpp, the
-// distribution over processes from the Domain (migrate and exchange do
-// nothing on one process). The contacts of the initial state are computed at
-// construction, so the first observed frame has its penetration, and the
-// first step reuses them (nothing has moved in between).
+// Every stage implementation comes from the one stage registry
+// (run/stages.hpp) and gets the pipeline's own execution context
+// (exec/execution.hpp: threads, crossovers, loop runner, scratch pool), built
+// from RunOptions::execution: the collide backend, the solver, the force
+// passes the scene needs, and the decomposition over processes (migrate and
+// exchange do nothing on one process). The contacts of the initial state are
+// computed at construction, so the first observed frame has its penetration,
+// and the first step reuses them (nothing has moved in between).
 // Trade-off: one virtual call per stage per step; negligible next to the work.
 #pragma once
 #include <array>
@@ -15,15 +17,17 @@
 #include <stdexcept>
 #include <string>
 
-#include "run/checks.hpp"
 #include "collide/collide.hpp"
-#include "domain/domain.hpp"
-#include "run/diagnostics.hpp"
-#include "run/guard.hpp"
-#include "forces/magnets.hpp"
-#include "solve/solver.hpp"
+#include "domain/decomposition.hpp"
+#include "exec/execution.hpp"
+#include "forces/force_pass.hpp"
 #include "io/snapshot.hpp"
 #include "io/trajectory.hpp"
+#include "observe/diagnostics.hpp"
+#include "observe/guard.hpp"
+#include "run/checks.hpp"
+#include "solve/solver.hpp"
+#include "util/errors.hpp"
 #include "util/substages.hpp"
 #include "world/world.hpp"
 
@@ -40,22 +44,17 @@ struct StageState {
 };
 
 struct RunOptions {
-    std::string collide = "ode-hash";
-    std::string solver = "ode";  // "ode", "pgs", "parallel"
-    int threads = 1;
+    std::string collide = "ode-hash";  // a name of the stage registry's `collide`
+    std::string solver = "ode";        // ... of its `solver`: "ode", "pgs", "parallel" (pgs/omp), ...
+    ExecutionConfig execution;         // threads and how the stages use them
+    std::string domain = "single";     // ... of its `domain`: "single", or "mpi" under a launcher
     std::string snapshot_path;  // snapshot file (io/snapshot.hpp: H5MD or CSV); empty: no output stage
     int snapshot_every = 0;
     bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
     std::string dump_path;           // guard: where to write the last good state on failure
-    Domain* domain = nullptr;        // the processes of the run; null: this one alone
+    Decomposition* decomposition = nullptr;  // a caller's own (a test's stand-in), instead of `domain`
     std::string restart_path;        // continue from this checkpoint
     int invariants_every = 0;        // steps between invariant checks; 0: the build's default
-};
-
-// A run that cannot go on (NaN, runaway): names the step and the bodies.
-class SimulationError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
 };
 
 struct RunTotals {
@@ -84,7 +83,12 @@ public:
     const RunTotals& totals() const { return totals_; }
     const CollideBackend& backend() const { return *backend_; }
     const Diagnostics& initial() const { return initial_; }
-    const Domain& domain() const { return *domain_; }
+    const Decomposition& decomposition() const { return *domain_; }
+    const Collectives& collectives() const { return domain_->collectives(); }
+    const Execution& execution() const { return *exec_; }
+    Execution& execution() { return *exec_; }
+    // The force passes that run, in order (empty when the stage does not run).
+    const std::vector<std::unique_ptr<ForcePass>>& force_passes() const { return forces_; }
     const Guard& guard() const { return *guard_; }
     // Recorded frames (null unless RunOptions::record_trajectory).
     const Trajectory* trajectory() const { return trajectory_.get(); }
@@ -119,6 +123,7 @@ public:
 
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
+    void make_force_passes();
     void restore(const std::string& path, const std::vector<std::uint32_t>& gids);
     void restore_run_state(const nlohmann::json& run);
     void run_migrate();
@@ -134,14 +139,13 @@ private:
     void timed(Stage s, F&& f);
 
     const Scene& scene_;
-    std::unique_ptr<Domain> own_domain_;
-    Domain* domain_ = nullptr;
-    ScratchPool scratch_;  // shared by the collider and the solver
+    std::unique_ptr<Execution> exec_;  // first: every stage below keeps a reference to it
+    std::unique_ptr<Decomposition> own_domain_;
+    Decomposition* domain_ = nullptr;
     std::unique_ptr<CollideBackend> backend_;
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;
-    std::unique_ptr<MagnetField> magnets_;
-    std::vector<BodyWrench> wrenches_;
+    std::vector<std::unique_ptr<ForcePass>> forces_;
     ContactBuffer contacts_;
     std::array<StageState, kStageCount> stages_;
     Diagnostics initial_;

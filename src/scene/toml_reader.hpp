@@ -14,13 +14,9 @@
 #include <vector>
 
 #include "scene/scene.hpp"
+#include "util/errors.hpp"
 
 namespace parode {
-
-class SceneError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
 
 // A table (or value) with the dotted path that led to it.
 class Node {

@@ -6,7 +6,7 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "util/parallel.hpp"
+#include "exec/execution.hpp"
 #include "util/scratch.hpp"
 
 namespace parode {
@@ -61,14 +61,7 @@ bool sphere_or_plane(World::GeomShape s) { return s == World::GeomShape::Sphere 
 
 // A body's contacts are owned by cells within 2 r_max of it: with cells of
 // 4 r_max they span at most two cells per axis, of different parity.
-ContactSolver::ContactSolver(const Scene& scene) : scene_(scene), cells_(scene) {}
-
-void ContactSolver::set_scratch(ScratchPool* pool) {
-    ScratchPool* p = pool ? pool : &own_pool_;
-    bodies_.set_pool(p);
-    hot_.set_pool(p);
-    rows_.set_pool(p);
-}
+ContactSolver::ContactSolver(const Scene& scene, Execution& exec) : scene_(scene), exec_(exec), cells_(scene) {}
 
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
@@ -147,7 +140,7 @@ bool ContactSolver::only_sphere_rows() const {
 void ContactSolver::fill_body_rows() {
     const auto& order = layout_.order();
     hot_.resize(order.size());
-    for_ranges(order.size(), kGrain, [&](std::size_t s0, std::size_t s1) {
+    for_ranges(loops(), order.size(), kGrain, [&](std::size_t s0, std::size_t s1) {
         for (std::size_t s = s0; s < s1; ++s) {
             BodyRow& H = hot_[s];
             const BodyData& B = bodies_[order[s]];
@@ -170,7 +163,7 @@ void ContactSolver::classify_and_match() {
     scratch_resize(block_of_, nc);
     scratch_assign(warm_, nc, kNone);
     const bool match = scene_.solver.warm_start && !previous_.empty();
-    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         if (k0 == k1) return;
         WarmImpulse key;  // contact k's canonical key
         key.lo = items[k0].lo;
@@ -286,7 +279,7 @@ void ContactSolver::build_phase() {
     }
     invI_.resize(all_spheres_ ? 0 : nb);
     all_rows_ = only_sphere_rows();
-    for_ranges(nb, kGrain, [&](std::size_t i0, std::size_t i1) {
+    for_ranges(loops(), nb, kGrain, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
     });
     classify_and_match();
@@ -303,10 +296,10 @@ void ContactSolver::build_phase() {
     li.gid = world_->gids().data();
     li.contacts = nc;
     li.owner = owner_.data();
-    layout_.build(li);
+    layout_.build(li, loops());
     fill_body_rows();
     rows_.resize(nc);
-    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
             if (k + kPrefetchAhead < k1) prefetch_row(layout_.position(k + kPrefetchAhead));
             build_row(k);
@@ -504,13 +497,13 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     SubstageTimer t(times_, "integrate");
     const std::size_t nc = contacts.size();
     scratch_resize(previous_, nc);  // last step's impulses were read by build_row
-    for_ranges(nc, kGrain, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
             if (k + kPrefetchAhead < k1) __builtin_prefetch(&rows_[layout_.position(k + kPrefetchAhead)].lambda);
             remember(k);
         }
     });
-    const std::size_t nb = bodies_.size(), chunks = chunk_count(nb, kGrain);
+    const std::size_t nb = bodies_.size(), chunks = chunk_count(loops(), nb, kGrain);
     std::vector<unsigned char> finite(chunks, 1);
     std::vector<double> fastest(chunks, 0.0);
     loops().run(chunks, nb, [&](std::size_t c) {

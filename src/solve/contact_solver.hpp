@@ -29,7 +29,7 @@
 #include "solve/contact_rows.hpp"
 #include "solve/solver.hpp"
 #include "solve/sweep_layout.hpp"
-#include "util/scratch_pool.hpp"
+#include "exec/execution.hpp"
 #include "util/substages.hpp"
 #include "world/world.hpp"
 
@@ -76,14 +76,15 @@ public:
 
 class ContactSolver : public SolverBackend {
 public:
-    explicit ContactSolver(const Scene& scene);
-    explicit ContactSolver(Scene&&) = delete;  // keeps a reference to the scene
+    // Its loops, per-step tables and (omp/) threads come from `exec`, which
+    // must outlive it.
+    ContactSolver(const Scene& scene, Execution& exec);
+    ContactSolver(Scene&&, Execution&) = delete;  // keeps a reference to the scene
     std::string name() const override { return "pgs"; }
     bool uses_contact_joints() const override { return false; }
     void step(World& world, const ContactBuffer& contacts) override;
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
-    void set_scratch(ScratchPool* pool) override;
     const Substages* substages() const override { return &times_; }
     bool wrote_finite_state() const override { return finite_; }
     double max_speed_written() const override { return max_speed_; }
@@ -115,6 +116,8 @@ protected:
     }
     bool exchanging() const { return exchange_ != nullptr; }
     Substages& times() { return times_; }
+    Execution& execution() const { return exec_; }
+    const LoopRunner& loops() const { return exec_.loops(); }
 
 private:
     // Per local body, what build and integrate need (the sweeps use BodyRow).
@@ -141,12 +144,12 @@ private:
     const double* inv_inertia(std::uint32_t local, double* diag) const;
 
     const Scene& scene_;
+    Execution& exec_;
     CellSpace cells_;
     const World* world_ = nullptr;
     const ContactBuffer* contacts_ = nullptr;
     bool general_only_ = false;
-    ScratchPool own_pool_;                           // unless set_scratch gives a shared one
-    ScratchArray<BodyData> bodies_{&own_pool_, kSlotBodies};  // per local body
+    ScratchArray<BodyData> bodies_{&exec_.scratch(), kSlotBodies};  // per local body
     std::vector<std::array<double, 9>> invI_;        // per local body, unless all are spheres
     std::uint64_t shapes_of_ = ~0ULL;                // world generation all_spheres_ is for
     bool all_spheres_ = true;
@@ -155,8 +158,8 @@ private:
     std::vector<std::uint32_t> owner_, other_;       // per contact: local bodies of lo and hi (or none)
     std::vector<std::uint32_t> block_of_;            // per contact: index into blocks_, or kNone
     SweepLayout layout_;
-    ScratchArray<BodyRow> hot_{&own_pool_, kSlotBodyRows};  // per body slot
-    ScratchArray<SphereRow> rows_{&own_pool_, kSlotRows};   // per position; general: b1 = -1 - block index
+    ScratchArray<BodyRow> hot_{&exec_.scratch(), kSlotBodyRows};  // per body slot
+    ScratchArray<SphereRow> rows_{&exec_.scratch(), kSlotRows};   // per position; general: b1 = -1 - block index
     std::vector<Block> blocks_;
     std::vector<WarmImpulse> previous_;              // last step's impulses, canonical order
     std::vector<std::uint32_t> warm_;                // contact -> index into previous_, or kNone

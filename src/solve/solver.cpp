@@ -8,6 +8,15 @@
 namespace parode {
 namespace {
 
+// One step of ODE's stepper with this world's dRand sequence (world.hpp).
+void ode_step(World& world, const Scene& scene) {
+    dRandSetSeed(world.drand_seed());
+    if (scene.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene.dt);
+    else dWorldStep(world.id(), scene.dt);
+    world.set_drand_seed(dRandGetSeed());
+    world.settle_quaternions();
+}
+
 class OdeSolver final : public SolverBackend {
 public:
     OdeSolver(const Scene& scene, std::string why) : scene_(scene), why_(std::move(why)) {}
@@ -16,11 +25,7 @@ public:
     }
     std::string why() const override { return why_.empty() ? name() : name() + ": " + why_; }
     bool uses_contact_joints() const override { return true; }
-    void step(World& world, const ContactBuffer& /*contacts*/) override {
-        if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
-        else dWorldStep(world.id(), scene_.dt);
-        world.settle_quaternions();
-    }
+    void step(World& world, const ContactBuffer& /*contacts*/) override { ode_step(world, scene_); }
 
 private:
     const Scene& scene_;
@@ -47,9 +52,7 @@ public:
     bool uses_contact_joints() const override { return true; }
     void step(World& world, const ContactBuffer& /*contacts*/) override {
         if (!impl_) attach(world.id());
-        if (scene_.solver.stepper == Stepper::Quick) dWorldQuickStep(world.id(), scene_.dt);
-        else dWorldStep(world.id(), scene_.dt);
-        world.settle_quaternions();
+        ode_step(world, scene_);
     }
 
 private:
@@ -81,19 +84,19 @@ std::string contact_solver_unsupported(const Scene& scene) {
     return "";
 }
 
-SolverRegistry::SolverRegistry() : Registry("solver") {
-    add("ode", [](const Scene& s, int) { return make_ode_solver(s, ""); });
-    add("ode-threaded", [](const Scene& s, int threads) { return std::make_unique<OdeThreadedSolver>(s, threads); });
-    add("pgs", [](const Scene& s, int) -> std::unique_ptr<SolverBackend> {
-        const std::string no = contact_solver_unsupported(s);
-        if (!no.empty()) return make_ode_solver(s, "pgs not used: " + no);
-        return std::make_unique<ContactSolver>(s);
-    });
-}
-
-SolverRegistry& SolverRegistry::instance() {
-    static SolverRegistry registry;
-    return registry;
+void add_reference_solvers(SolverRegistry& r) {
+    r.add("ode", [](const Scene& s, Execution&) { return make_ode_solver(s, ""); }, {},
+          "ODE's own stepper (dWorldQuickStep, or dWorldStep with solver.stepper = \"step\"): the reference");
+    r.add("ode-threaded",
+          [](const Scene& s, Execution& e) { return std::make_unique<OdeThreadedSolver>(s, e.threads()); }, {},
+          "ODE's staged QuickStep on ODE's own thread pool (not reproducible with 2+ threads)");
+    r.add("pgs",
+          [](const Scene& s, Execution& e) -> std::unique_ptr<SolverBackend> {
+              const std::string no = contact_solver_unsupported(s);
+              if (!no.empty()) return make_ode_solver(s, "pgs not used: " + no);
+              return std::make_unique<ContactSolver>(s, e);
+          },
+          {}, "parode's contact solver (cells, colours, warm start), serial");
 }
 
 }  // namespace parode

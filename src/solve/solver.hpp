@@ -3,8 +3,9 @@
 // (dWorldQuickStep or dWorldStep, from the scene) on contact joints made by the
 // joints stage; "ode-threaded" is the same on ODE's built-in thread pool
 // (islands and QuickStep stages in parallel; not reproducible run to run with
-// 2+ threads, which the report states); "pgs" (serial, src/) and "parallel"
-// (OpenMP, omp/) run the project's contact solver.
+// 2+ threads, which the report states); "pgs" (serial, src/) and its threaded
+// variant "pgs/omp" (omp/; also named "parallel") run the project's contact
+// solver.
 // Trade-off: the project solver handles contact-only scenes (no scene joints,
 // no auto-disable); other scenes stay on ODE's stepper and the report says why.
 #pragma once
@@ -15,7 +16,7 @@
 
 #include "collide/contacts.hpp"
 #include "util/registry.hpp"
-#include "util/scratch_pool.hpp"
+#include "exec/execution.hpp"
 #include "util/substages.hpp"
 #include "world/world.hpp"
 
@@ -46,19 +47,13 @@ public:
     // With wrote_finite_state: the largest linear speed it wrote, computed as
     // the guard computes it (negative: not known; the guard then scans).
     virtual double max_speed_written() const { return -1.0; }
-    // A pool for the per-step tables, shared with stages that run at other
-    // times of the step (util/scratch_pool.hpp).
-    virtual void set_scratch(ScratchPool* /*pool*/) {}
 };
 
-// Factories take the scene and the run's thread count.
-class SolverRegistry : public Registry<SolverBackend, const Scene&, int> {
-public:
-    static SolverRegistry& instance();
-
-private:
-    SolverRegistry();
-};
+// Name -> factory, in the stage registry (run/stages.hpp). Factories take
+// the scene and the pipeline's execution (threads, loops, scratch pool).
+using SolverRegistry = Registry<SolverBackend, const Scene&, Execution&>;
+// Adds ode, ode-threaded and pgs.
+void add_reference_solvers(SolverRegistry& registry);
 
 // Empty when the project's contact solver can run `scene`, else the reason not.
 std::string contact_solver_unsupported(const Scene& scene);

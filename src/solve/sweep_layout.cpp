@@ -8,7 +8,7 @@
 #include <numeric>
 
 #include "domain/cells.hpp"
-#include "util/parallel.hpp"
+#include "exec/loops.hpp"
 #include "util/scratch.hpp"
 
 namespace parode {
@@ -21,9 +21,10 @@ std::uint64_t coord(std::uint64_t key, int axis) { return CellSpace::coord(key, 
 }  // namespace
 
 SweepLayout::Box SweepLayout::bounding_box(const LayoutInput& in) const {
-    const std::size_t n = in.bodies, chunks = chunk_count(n, kGrain);
+    const LoopRunner& loops = *runner_;
+    const std::size_t n = in.bodies, chunks = chunk_count(loops, n, kGrain);
     std::vector<Box> part(chunks);
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops.run(chunks, n, [&](std::size_t c) {
         Box b;  // a local, stored once: neighbouring chunks' boxes share a cache line
         std::uint64_t hi[3] = {0, 0, 0};
         for (int a = 0; a < 3; ++a) b.lo[a] = ~0ULL;
@@ -56,11 +57,12 @@ SweepLayout::Box SweepLayout::bounding_box(const LayoutInput& in) const {
 // per chunk, a prefix over slabs x chunks, a scatter per chunk), then each
 // slab by its cells.
 void SweepLayout::sort_dense(const LayoutInput& in, const Box& box) {
-    const std::size_t n = in.bodies, chunks = chunk_count(n, kGrain);
+    const LoopRunner& loops = *runner_;
+    const std::size_t n = in.bodies, chunks = chunk_count(loops, n, kGrain);
     const std::size_t plane = box.dim[0] * box.dim[1], slabs = box.dim[2];
     lin_.resize(n);
     slab_pos_.assign(chunks * slabs, 0);
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops.run(chunks, n, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
             const std::uint64_t k = in.cell[i];
             const std::size_t z = coord(k, 2) - box.lo[2];
@@ -70,13 +72,13 @@ void SweepLayout::sort_dense(const LayoutInput& in, const Box& box) {
     });
     outer_inner_offsets(chunks, slabs, slab_pos_, slab_start_);
     slab_items_.resize(n);
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops.run(chunks, n, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
             slab_items_[slab_pos_[c * slabs + lin_[i] / plane]++] = static_cast<std::uint32_t>(i);
         }
     });
     count_.resize(plane * slabs);
-    for_ranges(slabs, 1, [&](std::size_t z0, std::size_t z1) {
+    for_ranges(loops, slabs, 1, [&](std::size_t z0, std::size_t z1) {
         for (std::size_t z = z0; z < z1; ++z) {
             std::uint32_t* count = count_.data() + z * plane;
             std::fill(count, count + plane, 0u);
@@ -104,10 +106,11 @@ void SweepLayout::sort_sparse(const LayoutInput& in) {
 
 // Cells are runs of equal keys among the sorted bodies: their first slots.
 void SweepLayout::list_cells(const LayoutInput& in) {
-    const std::size_t n = in.bodies, chunks = chunk_count(n, kGrain);
+    const LoopRunner& loops = *runner_;
+    const std::size_t n = in.bodies, chunks = chunk_count(loops, n, kGrain);
     std::vector<std::size_t> first(chunks + 1, 0);
     auto starts = [&](std::size_t s) { return s == 0 || in.cell[order_[s]] != in.cell[order_[s - 1]]; };
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops.run(chunks, n, [&](std::size_t c) {
         std::size_t count = 0;  // stored once: neighbouring chunks' entries share a cache line
         for (std::size_t s = chunk_begin(n, chunks, c); s < chunk_begin(n, chunks, c + 1); ++s) count += starts(s);
         first[c + 1] = count;
@@ -115,7 +118,7 @@ void SweepLayout::list_cells(const LayoutInput& in) {
     std::partial_sum(first.begin(), first.end(), first.begin());
     cell_slot_.resize(first[chunks] + 1);
     cell_slot_[first[chunks]] = static_cast<std::uint32_t>(n);
-    loops().run(chunks, n, [&](std::size_t c) {
+    loops.run(chunks, n, [&](std::size_t c) {
         std::size_t at = first[c];
         for (std::size_t s = chunk_begin(n, chunks, c); s < chunk_begin(n, chunks, c + 1); ++s) {
             if (starts(s)) cell_slot_[at++] = static_cast<std::uint32_t>(s);
@@ -125,8 +128,9 @@ void SweepLayout::list_cells(const LayoutInput& in) {
 
 // Within a cell, bodies by global id (local order already is, on one process).
 void SweepLayout::order_within_cells(const LayoutInput& in) {
+    const LoopRunner& loops = *runner_;
     const std::size_t cells = cell_slot_.size() - 1;
-    for_ranges(cells, kGrain / 8, [&](std::size_t t0, std::size_t t1) {
+    for_ranges(loops, cells, kGrain / 8, [&](std::size_t t0, std::size_t t1) {
         for (std::size_t t = t0; t < t1; ++t) {
             std::uint32_t* first = order_.data() + cell_slot_[t];
             std::uint32_t* last = order_.data() + cell_slot_[t + 1];
@@ -142,10 +146,11 @@ void SweepLayout::order_within_cells(const LayoutInput& in) {
 
 // Each body's owned contacts: one run in canonical order.
 void SweepLayout::find_runs(const LayoutInput& in) {
+    const LoopRunner& loops = *runner_;
     run_count_.assign(in.bodies, 0);
     run_first_.resize(in.bodies);
     const std::size_t m = in.contacts;
-    for_ranges(m, kGrain, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(loops, m, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
             const std::uint32_t o = in.owner[k];
             if (k > 0 && in.owner[k - 1] == o) continue;
@@ -159,12 +164,13 @@ void SweepLayout::find_runs(const LayoutInput& in) {
 
 // Cells with contacts, colour by colour, and their first positions.
 void SweepLayout::place_contacts() {
-    const std::size_t cells = cell_slot_.size() - 1, chunks = chunk_count(cells, kGrain / 8);
+    const LoopRunner& loops = *runner_;
+    const std::size_t cells = cell_slot_.size() - 1, chunks = chunk_count(loops, cells, kGrain / 8);
     std::vector<std::size_t> contacts(cells);
     std::vector<std::size_t> per(chunks * kColours, 0), colour_first;
     // Each chunk counts into a local row and stores it once: the rows of
     // neighbouring chunks share a cache line.
-    loops().run(chunks, cells, [&](std::size_t c) {
+    loops.run(chunks, cells, [&](std::size_t c) {
         std::array<std::size_t, kColours> count{};
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
             std::size_t k = 0;
@@ -178,7 +184,7 @@ void SweepLayout::place_contacts() {
     for (int c = 0; c <= kColours; ++c) colour_start_[static_cast<std::size_t>(c)] = colour_first[static_cast<std::size_t>(c)];
     const std::size_t tasks = colour_first[kColours];
     task_cell_.resize(tasks);
-    loops().run(chunks, cells, [&](std::size_t c) {
+    loops.run(chunks, cells, [&](std::size_t c) {
         std::array<std::size_t, kColours> next;
         std::copy_n(per.begin() + static_cast<std::ptrdiff_t>(c * kColours), kColours, next.begin());
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
@@ -193,7 +199,7 @@ void SweepLayout::place_contacts() {
     }
     pos_start_[tasks] = acc;
     scratch_resize(position_, acc);
-    for_ranges(tasks, kGrain / 8, [&](std::size_t j0, std::size_t j1) {
+    for_ranges(loops, tasks, kGrain / 8, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) {
             std::size_t p = pos_start_[j];
             const std::uint32_t t = task_cell_[j];
@@ -205,7 +211,8 @@ void SweepLayout::place_contacts() {
     });
 }
 
-void SweepLayout::build(const LayoutInput& in) {
+void SweepLayout::build(const LayoutInput& in, const LoopRunner& loops) {
+    runner_ = &loops;
     const std::size_t n = in.bodies;
     order_.resize(n);
     const Box box = bounding_box(in);
@@ -215,11 +222,11 @@ void SweepLayout::build(const LayoutInput& in) {
     list_cells(in);
     order_within_cells(in);
     slot_.resize(n);
-    for_ranges(n, kGrain, [&](std::size_t s0, std::size_t s1) {
+    for_ranges(loops, n, kGrain, [&](std::size_t s0, std::size_t s1) {
         for (std::size_t s = s0; s < s1; ++s) slot_[order_[s]] = static_cast<std::uint32_t>(s);
     });
     colour_.resize(cell_slot_.size() - 1);
-    for_ranges(colour_.size(), kGrain, [&](std::size_t t0, std::size_t t1) {
+    for_ranges(loops, colour_.size(), kGrain, [&](std::size_t t0, std::size_t t1) {
         for (std::size_t t = t0; t < t1; ++t) colour_[t] = static_cast<std::uint8_t>(CellSpace::colour(in.cell[order_[cell_slot_[t]]]));
     });
     find_runs(in);

@@ -21,6 +21,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "exec/loops.hpp"
+
 namespace parode {
 
 struct LayoutInput {
@@ -34,7 +36,8 @@ struct LayoutInput {
 class SweepLayout {
 public:
     static constexpr int kColours = 8;
-    void build(const LayoutInput& in);
+    // Its loops run on `loops` (the solver's execution context).
+    void build(const LayoutInput& in, const LoopRunner& loops);
 
     const std::vector<std::uint32_t>& order() const { return order_; }  // slot -> local body
     const std::vector<std::uint32_t>& slot() const { return slot_; }    // local body -> slot
@@ -59,6 +62,7 @@ private:
     void find_runs(const LayoutInput& in);
     void place_contacts();
 
+    const LoopRunner* runner_ = nullptr;  // build's
     std::vector<std::uint32_t> order_, slot_;
     std::vector<std::uint32_t> lin_;         // dense: per local body, its cell in the box
     std::vector<std::uint32_t> count_;       // dense: per box cell, bodies (then first slot)

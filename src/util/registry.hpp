@@ -1,5 +1,7 @@
-// A registry of named implementations of one stage: name -> factory. The core
-// registers its reference implementations; omp/ adds parallel ones at start-up.
+// A registry of named implementations of one stage: name -> factory, with
+// aliases (older names that keep working) and a line saying what each is.
+// A threaded variant of a serial implementation X is named X/omp (LAMMPS's
+// suffix styles), so that the relation shows in every listing.
 // Trade-off: a linear list (a handful of entries) keeps registration order,
 // which is the order `--help` lists them in.
 #pragma once
@@ -19,35 +21,79 @@ public:
 
     explicit Registry(std::string what) : what_(std::move(what)) {}
 
-    void add(const std::string& name, Factory factory) {
+    // Adds (or replaces) `name`; `aliases` name it too.
+    void add(const std::string& name, Factory factory, std::vector<std::string> aliases = {}, std::string about = {}) {
         for (auto& e : entries_) {
-            if (e.first == name) {
-                e.second = std::move(factory);
+            if (e.name == name) {
+                e.factory = std::move(factory);
+                e.aliases = std::move(aliases);
+                e.about = std::move(about);
                 return;
             }
         }
-        entries_.emplace_back(name, std::move(factory));
+        entries_.push_back({name, std::move(factory), std::move(aliases), std::move(about)});
     }
 
-    // Throws std::invalid_argument naming the known entries for an unknown name.
-    std::unique_ptr<Product> make(const std::string& name, Args... args) const {
-        for (const auto& e : entries_) {
-            if (e.first == name) return e.second(args...);
-        }
-        std::string known;
-        for (const auto& e : entries_) known += (known.empty() ? "" : ", ") + e.first;
-        throw std::invalid_argument("unknown " + what_ + " '" + name + "' (expected one of: " + known + ")");
-    }
+    bool has(const std::string& name) const { return find(name) != nullptr; }
+    // The registered name that `name` (a name or an alias) stands for; throws
+    // std::invalid_argument naming the known entries for an unknown name.
+    const std::string& canonical(const std::string& name) const { return entry(name).name; }
 
+    std::unique_ptr<Product> make(const std::string& name, Args... args) const { return entry(name).factory(args...); }
+
+    // Registered names, in registration order.
     std::vector<std::string> names() const {
         std::vector<std::string> out;
-        for (const auto& e : entries_) out.push_back(e.first);
+        for (const auto& e : entries_) out.push_back(e.name);
         return out;
     }
+    // Names and aliases: everything `make` accepts.
+    std::vector<std::string> accepted() const {
+        std::vector<std::string> out;
+        for (const auto& e : entries_) {
+            out.push_back(e.name);
+            out.insert(out.end(), e.aliases.begin(), e.aliases.end());
+        }
+        return out;
+    }
+    // "a, b (also c), d": for help texts and error messages.
+    std::string listing() const {
+        std::string out;
+        for (const auto& e : entries_) {
+            out += (out.empty() ? "" : ", ") + e.name;
+            if (!e.aliases.empty()) {
+                std::string also;
+                for (const auto& a : e.aliases) also += (also.empty() ? "" : ", ") + a;
+                out += " (also " + also + ")";
+            }
+        }
+        return out;
+    }
+    const std::string& about(const std::string& name) const { return entry(name).about; }
 
 private:
+    struct Entry {
+        std::string name;
+        Factory factory;
+        std::vector<std::string> aliases;
+        std::string about;
+    };
+    const Entry* find(const std::string& name) const {
+        for (const auto& e : entries_) {
+            if (e.name == name) return &e;
+            for (const auto& a : e.aliases) {
+                if (a == name) return &e;
+            }
+        }
+        return nullptr;
+    }
+    const Entry& entry(const std::string& name) const {
+        if (const Entry* e = find(name)) return *e;
+        throw std::invalid_argument("unknown " + what_ + " '" + name + "' (expected one of: " + listing() + ")");
+    }
+
     std::string what_;
-    std::vector<std::pair<std::string, Factory>> entries_;
+    std::vector<Entry> entries_;
 };
 
 }  // namespace parode

@@ -65,7 +65,7 @@ void ensure_ode_initialised() {
 World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::uint32_t>* gids)
     : scene_(scene), global_(scene.body_count()) {
     ensure_ode_initialised();
-    dRandSetSeed(static_cast<unsigned long>(scene.seed));
+    drand_seed_ = static_cast<unsigned long>(scene.seed);
     world_ = dWorldCreate();
     space_ = make_space(space_kind);
     contacts_ = dJointGroupCreate(0);

@@ -6,7 +6,10 @@
 // owned here or a ghost (a read-only copy of a body owned by another
 // process). Geom ids equal body gids; static geoms and planes follow all
 // bodies (ids body_count .. of the whole scene), and every process holds all
-// of them. ODE's dRand is seeded from the scene at creation.
+// of them. ODE's dRand (QuickStep's reordering) is process-global in ODE:
+// each World keeps its own seed, which ODE's steppers load before a step and
+// store after it (drand_seed), so worlds stepped in turns in one process do
+// not draw from each other's sequence.
 // Collision filtering by category bits: owned geoms are category 1, static
 // geoms category 2 (collide only with owned), ghost geoms category 4
 // (collide only with owned), so static-static, ghost-ghost and ghost-static
@@ -42,7 +45,7 @@ struct BodyState {
 // storage so that a body that stays in its cell needs no lookup.
 struct DomainSlot {
     std::uint64_t cell = ~0ULL;
-    std::uintptr_t holders = 0;  // the domain's handle for the cell's holders
+    const std::vector<int>* holders = nullptr;  // the ranks holding a copy of the cell's bodies (the domain's)
     std::int32_t owner = -1;
     std::uint32_t epoch = ~0u;   // the partition the entry belongs to
     std::uint32_t stamp = 0;     // the domain's pass that found it current (0: none)
@@ -150,6 +153,12 @@ public:
     // that a checkpoint can restore the body bit for bit.
     void settle_quaternions();
 
+    // ODE's dRand state for this world: seeded from the scene; an ODE stepper
+    // calls dRandSetSeed(drand_seed()) before its step and stores
+    // dRandGetSeed() after it.
+    unsigned long drand_seed() const { return drand_seed_; }
+    void set_drand_seed(unsigned long seed) { drand_seed_ = seed; }
+
     // Surface parameters for a contact between two materials (mixed once, cached).
     const dSurfaceParameters& surface(int a, int b) const;
     // True for a contact between two bodies joined by a scene joint: such bodies
@@ -183,6 +192,7 @@ private:
     std::size_t owned_ = 0;
     IdMap map_;
     std::uint64_t generation_ = 0;
+    unsigned long drand_seed_ = 0;
     bool defer_moves_ = false;  // poses_written leaves the marks to sync_moves
     bool moves_pending_ = false;  // poses written, ODE's spaces not told
     std::vector<dGeomID> geoms_;

@@ -19,7 +19,7 @@
 #include "collide/collide.hpp"
 #include "collide_bench.hpp"
 #include "random_scene.hpp"
-#include "register.hpp"
+#include "omp/stages.hpp"
 
 namespace {
 
@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
     for (const std::string& t : split(argv[4])) threads.push_back(std::atoi(t.c_str()));
     dInitODE2(0);
     dAllocateODEDataForThread(dAllocateMaskAll);
-    parode::omp::register_backends();
+    parode::omp::add_stages();
     {
         parode::test::SpherePrism prism(n, 0.5, 0.01, 1, dSimpleSpaceClass);
         const auto results = parode::omp::bench_collide(prism.space(), backends, threads, 4, reps);

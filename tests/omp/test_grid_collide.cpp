@@ -15,19 +15,28 @@
 #include <random>
 #include <vector>
 
-#include "grid_boxes.hpp"
-#include "cell_grid.hpp"
+#include "omp/grid/grid_boxes.hpp"
+#include "omp/grid/cell_grid.hpp"
 #include "collide/collide.hpp"
 #include "collide_bench.hpp"
 #include "collide/contacts.hpp"
-#include "fast_pairs.hpp"
-#include "grid_collide.hpp"
-#include "parallel_collide.hpp"
+#include "omp/grid/fast_pairs.hpp"
+#include "omp/grid/grid_collide.hpp"
+#include "omp/grid/parallel_collide.hpp"
 #include "random_scene.hpp"
-#include "register.hpp"
+#include "omp/stages.hpp"
 
 namespace parode::test {
 namespace {
+
+// An engine's execution on `threads` threads with its threaded paths at every
+// size (min_parallel 0: the results are the same, only the cost differs).
+ExecutionConfig threaded(int threads) {
+    ExecutionConfig c;
+    c.threads = threads > 0 ? threads : omp::default_threads();
+    c.min_parallel = 0;
+    return c;
+}
 
 constexpr int kMaxContacts = 8;
 
@@ -57,8 +66,7 @@ void expect_engine_matches(dSpaceID space, const char* what) {
     collide_space_reference(space, kMaxContacts, ref);
     ASSERT_GT(ref.size(), 0u) << what << ": scene has no contacts, test would be vacuous";
     for (int t = 1; t <= 4; ++t) {
-        omp::CollideEngine engine;
-        engine.set_threads(t);
+        omp::CollideEngine engine(threaded(t));
         ContactBuffer got;
         engine.collide(space, kMaxContacts, got);
         SCOPED_TRACE(testing::Message() << what << ", threads " << t);
@@ -108,8 +116,7 @@ TEST_P(RandomScenes, Collide2OfEachGeomMatches) {
         collide2_reference(geoms[i], scene.space(), kMaxContacts, ref);
         touching += ref.size();
         for (int t = 1; t <= 4; ++t) {
-            omp::CollideEngine engine;
-            engine.set_threads(t);
+            omp::CollideEngine engine(threaded(t));
             ContactBuffer got;
             engine.collide2(geoms[i], scene.space(), kMaxContacts, got);
             SCOPED_TRACE(testing::Message() << "geom " << i << ", threads " << t);
@@ -128,8 +135,7 @@ TEST_P(RandomScenes, Collide2OfSpaceMatches) {
     collide2_reference(reinterpret_cast<dGeomID>(scene.space()), scene.nested(), kMaxContacts, ref_rev);
     ASSERT_GT(ref.size(), 0u);
     for (int t = 1; t <= 4; ++t) {
-        omp::CollideEngine engine;
-        engine.set_threads(t);
+        omp::CollideEngine engine(threaded(t));
         ContactBuffer got;
         engine.collide2(reinterpret_cast<dGeomID>(scene.nested()), scene.space(), kMaxContacts, got);
         expect_identical(ref, got, "collide2 nested->top");
@@ -207,8 +213,7 @@ TEST(GridCollide, SparseScatterMatches) {
     ContactBuffer ref;
     collide_space_reference(scene.space(), kMaxContacts, ref);
     for (int t = 1; t <= 4; ++t) {
-        omp::CollideEngine engine;
-        engine.set_threads(t);
+        omp::CollideEngine engine(threaded(t));
         ContactBuffer got;
         engine.collide(scene.space(), kMaxContacts, got);
         expect_identical(ref, got, "sparse scatter");
@@ -217,8 +222,7 @@ TEST(GridCollide, SparseScatterMatches) {
 
 TEST(GridCollide, RepeatedCallsAndMovedGeomsMatch) {
     RandomScene scene(21, SceneOptions{});
-    omp::CollideEngine engine;
-    engine.set_threads(3);
+    omp::CollideEngine engine(threaded(3));
     for (int step = 0; step < 3; ++step) {
         for (std::size_t i = 0; i < scene.geoms().size(); i += 5) {
             dGeomID g = scene.geoms()[i];
@@ -459,19 +463,20 @@ TEST(LibraryApi, ForEachPairNamesAMissingGeom) {
 }
 
 TEST(LibraryApi, RegistryGridBackendMatches) {
-    omp::register_backends();
-    auto grid = BackendRegistry::instance().make("grid");
+    omp::add_stages();
+    const auto exec = Stages::instance().execution(threaded(2));
+    auto grid = Stages::instance().collide.make("grid", *exec);
     EXPECT_EQ(grid->name(), "grid");
+    EXPECT_EQ(Stages::instance().collide.canonical("grid/omp"), "grid");
     RandomScene scene(51, SceneOptions{});
     ContactBuffer ref, got;
     collide_space_reference(scene.space(), kMaxContacts, ref);
-    grid->set_threads(2);
     grid->collide(scene.space(), kMaxContacts, got);
     expect_identical(ref, got, "registry grid");
 }
 
 TEST(LibraryApi, BenchReportsReferenceDigest) {
-    omp::register_backends();
+    omp::add_stages();
     SpherePrism prism(6, 0.5, 0.01, 3, dHashSpaceClass);
     ContactBuffer ref;
     collide_space_reference(prism.space(), kMaxContacts, ref);
@@ -493,7 +498,6 @@ TEST(LibraryApi, BenchReportsReferenceDigest) {
 }  // namespace parode::test
 
 int main(int argc, char** argv) {
-    parode::omp::set_min_parallel(0);  // the threaded paths at every size (the results are the same)
     dInitODE2(0);
     dAllocateODEDataForThread(dAllocateMaskAll);
     testing::InitGoogleTest(&argc, argv);

@@ -1,0 +1,114 @@
+// A neighbour list with a skin (a Verlet list) over the plain spheres of
+// World's flat space, kept from one collision call to the next. Built in the
+// uniform grid's cells (cell_grid.hpp) over a compact copy of the spheres
+// (neighbour_build.cpp), it holds every pair of spheres whose reference
+// centres lie within the sum of their radii plus twice the skin.
+// While no sphere has moved the skin's length from its reference centre nor
+// grown, every pair that can touch is on the list, so a call tests only the
+// list's pairs (about three a sphere in a pile, against thirteen boxes of the
+// grid's half stencil) with ODE's whole filter (enabled, closed AABB overlap,
+// body, category and collide bits) and the exact touch test: the same pairs as
+// the grid, hence the same contacts, bit for bit, after the canonical merge.
+// The other geoms (planes, boxes, geoms outside the grid's size) are tested
+// against every sphere and each other on every call, as the grid's big list.
+// Reference centres are floats and radii rounded up; the build tests pairs on
+// the references themselves, and widens its cells by the measured error of
+// rounding the centres (a list whose error exceeds a quarter of the skin is
+// declined). The lists are walked in id
+// order (a rank's table, owned bodies and ghosts in local order, is sorted
+// by id once a build, in tasks), so their runs reach the merge in canonical
+// order.
+// Trade-off: about 32 bytes a sphere kept between calls (36 on a rank, with
+// the walk) and a rebuild whenever one sphere has moved the skin's length; a
+// scene whose spheres all fly apart fast rebuilds every call and then falls
+// back to the grid for a while.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "omp/grid/cell_grid.hpp"
+#include "omp/grid/geom_info.hpp"
+#include "omp/grid/grid_pairs.hpp"
+#include "omp/grid/lanes.hpp"
+
+namespace parode::omp {
+
+constexpr std::size_t kListBlock = 2048;     // table entries per task
+constexpr std::size_t kListMaxCooldown = 16;  // calls the grid runs alone at most, between builds
+
+// Whether a geom with these flags goes on the list: a plain, finite sphere.
+inline bool listable(std::uint32_t f) { return (f & kSphere) && !(f & kAux) && (f & kFinite); }
+
+// An entry of a list: a walk position. Left uninitialised when the list
+// grows (the build writes every entry, on its threads).
+struct ListEntry {
+    ListEntry() {}
+    std::uint32_t w;
+};
+
+class NeighbourList {
+public:
+    // Whether the list built for `owner` still covers every pair of the
+    // table's spheres that can touch (checked in tasks). Counts the use.
+    bool covers(const void* owner, const GeomTable& infos);
+    // Whether a failed check should be followed by a build: after lists that
+    // served fewer than two calls beyond their build, the grid runs alone for
+    // 1, 2, 4 ... 16 calls before the next.
+    bool due();
+    // Builds the list of `infos` for `owner` through `grid` (whose contents it
+    // overwrites). False when the table does not suit (too many geoms other
+    // than plain spheres, or coordinates too large for float references): the
+    // list is then empty and covers nothing.
+    bool build(const void* owner, const GeomTable& infos, CellGrid& grid);
+    // Whether the build's pair search may use SIMD (the same lists either way).
+    void set_simd(bool on) { simd_ = on; }
+    // The enabled geoms outside the list, by table index.
+    void others(const GeomTable& infos, std::vector<std::uint32_t>& out) const;
+    // The table's entries in blocks of consecutive indices, one task each.
+    std::size_t blocks() const;
+    // The list's pairs and each sphere against the big entries of `in`, in
+    // tasks, block b into lane[b] (runs as the grid's narrowphase writes
+    // them), so that the runs arrive in canonical order.
+    void pairs(const PairInputs& in, Lane* lane) const;
+
+    struct Counts {
+        std::size_t builds = 0, uses = 0, declined = 0;
+    };
+    const Counts& counts() const { return counts_; }
+    // A hash of the lists (their starts and entries): equal lists, equal hashes.
+    std::uint64_t digest() const;
+
+private:
+    // What the build's first pass learns of a block of the table.
+    struct Part {
+        std::size_t listed = 0, outside = 0, enabled_outside = 0;
+        double rmax = 0, shift = 0;
+        CellBounds bounds;
+        bool in_id_order = true;  // ids rise along the block
+        std::uint32_t first_id = 0, last_id = 0;
+    };
+    bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
+    void decline();
+    Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
+    void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
+    std::vector<std::uint32_t> walk_in_id_order(const GeomView& t, bool in_order);
+    void link(const CellGrid& grid, const std::vector<std::uint32_t>& items, const std::uint32_t* pos, float need);
+
+    const void* owner_ = nullptr;
+    bool simd_ = true;
+    std::size_t n_ = 0;
+    double skin_ = 0;
+    std::vector<float> ref_;               // x, y, z, radius (rounded up) per table index; radius < 0: not listed
+    // The walk: table entries in id order (empty: the table is in id order).
+    // The list of the entry at walk position w: next_[start_[w] .. start_[w + 1]),
+    // the walk positions after w it may touch, in increasing order.
+    std::vector<std::uint32_t> walk_, start_;
+    std::vector<ListEntry> next_;
+    std::vector<std::uint32_t> outside_;   // table indices not listed
+    std::size_t lived_ = 0;                // calls the current list served
+    std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
+    Counts counts_;
+};
+
+}  // namespace parode::omp

@@ -1,0 +1,26 @@
+// The OpenMP loop runner "loops/omp" (exec/loops.hpp): the chunks of a loop
+// shared among its execution's threads (dynamic, one chunk at a time) when
+// the loop is above its crossover and the team is not sharing its cores
+// (exec/team.hpp).
+// Trade-off: one parallel region per loop (a few microseconds) keeps the core's
+// loops free of OpenMP; the loops that matter are large.
+#pragma once
+#include "exec/execution.hpp"
+
+namespace parode::omp {
+
+class OmpLoopRunner final : public LoopRunner {
+public:
+    explicit OmpLoopRunner(const Execution& exec) : exec_(exec) {}
+    int threads(std::size_t items) const override;
+    void run(std::size_t chunks, std::size_t items, const std::function<void(std::size_t)>& f) const override;
+
+private:
+    const Execution& exec_;
+};
+
+// Items below which a loop of the core runs on one thread (measured:
+// docs/performance/threads-and-small-scenes.md).
+constexpr std::size_t kLoopCrossover = 2048;
+
+}  // namespace parode::omp

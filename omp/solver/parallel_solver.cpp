@@ -1,0 +1,181 @@
+// Threaded sweeps of the contact solver (see parallel_solver.hpp).
+#include "omp/solver/parallel_solver.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+
+#include "omp/runtime/task_split.hpp"
+#include "util/substages.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace parode::omp {
+namespace {
+
+// A thread waited at a barrier longer than it worked on the colour before it,
+// and long enough to be a descheduled thread rather than a slow wake-up or an
+// uneven split (1 ms; a time slice is several): threads cost more than they
+// give.
+bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
+
+// Such a wait counts only when the thread has also waited longer than it
+// worked over the whole call so far: at 10^6 catoms a colour is milliseconds
+// of work and the kernel's own noise (a few ms now and then, measured on an
+// otherwise idle machine) is no reason to give up a core for the rest of the
+// step; a process that holds the core makes the waits add up at any size.
+bool gave_up(double work, double wait, double total_work, double total_wait) {
+    return descheduled(work, wait) && total_wait > total_work;
+}
+
+}  // namespace
+
+void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
+    execution().team().begin_step();
+    ContactSolver::step(world, contacts);
+    execution().team().end_step();
+}
+
+namespace {
+
+// Where the cost measured on ranges [share[j], share[j+1]) (seconds[j] each,
+// spread evenly over its share) reaches `part` of the whole, as a share.
+double cost_quantile(const double* share, const double* seconds, std::size_t t, double part) {
+    double total = 0;
+    for (std::size_t j = 0; j < t; ++j) total += seconds[j];
+    double want = part * total;
+    for (std::size_t j = 0; j < t; ++j) {
+        const double width = share[j + 1] - share[j];
+        if (width <= 0) continue;
+        if (seconds[j] >= want) return share[j] + width * (seconds[j] > 0 ? want / seconds[j] : 0.0);
+        want -= seconds[j];
+    }
+    return 1.0;
+}
+
+}  // namespace
+
+// Per colour, one cell range per thread holding about equal shares of the
+// time measured on the previous call (of contacts, without one).
+void ParallelContactSolver::split(int team) {
+    const SweepLayout& L = layout();
+    const std::size_t t = static_cast<std::size_t>(team), stride = t + 1;
+    const bool measured = share_.size() == kColours * stride;
+    ranges_.assign(kColours * stride, 0);
+    std::vector<double> share(kColours * stride, 0.0);
+    for (int c = 0; c < kColours; ++c) {
+        const std::size_t b = L.colour_begin(c), e = L.colour_end(c), at = static_cast<std::size_t>(c) * stride;
+        const std::size_t p0 = L.cell_begin(b), p1 = L.cell_begin(e);
+        std::size_t* r = ranges_.data() + at;
+        double total = 0;
+        for (std::size_t j = 0; measured && j < t; ++j) total += seconds_[at + j];
+        r[0] = b;
+        r[t] = e;
+        for (std::size_t j = 1; j < t; ++j) {
+            const double part = static_cast<double>(j) / static_cast<double>(t);
+            const double g = total > 0 ? cost_quantile(&share_[at], &seconds_[at], t, part) : part;
+            const std::size_t target = p0 + static_cast<std::size_t>(static_cast<double>(p1 - p0) * g);
+            std::size_t lo = r[j - 1], hi = e;  // first cell starting at or after target
+            while (lo < hi) {
+                const std::size_t mid = (lo + hi) / 2;
+                if (L.cell_begin(mid) < target) lo = mid + 1;
+                else hi = mid;
+            }
+            r[j] = lo;
+        }
+        for (std::size_t j = 0; j <= t; ++j) {
+            share[at + j] = p1 > p0 ? static_cast<double>(L.cell_begin(r[j]) - p0) / static_cast<double>(p1 - p0) : 0.0;
+        }
+    }
+    share_.swap(share);
+    seconds_.assign(kColours * stride, 0.0);
+}
+
+void ParallelContactSolver::sweep(int passes, bool warm) {
+    Team& team = execution().team();
+    // Only the iterations try threads again on shared cores; the warm start
+    // (one pass, little work) would mostly wait.
+    const int t = warm ? team.threads(contact_count(), kSweepCrossover) : team.sweep_threads(contact_count(), kSweepCrossover);
+    if (t <= 1 || passes <= 0) {
+        ContactSolver::sweep(passes, warm);
+        return;
+    }
+    split(t);
+    team.verdict(sweep_threaded(passes, warm, t));
+}
+
+// The threads relax their ranges colour by colour, a barrier after each
+// colour. Steps (colours of all passes) are numbered; a thread that waited too
+// long at the barrier after step k (gave_up) sets `alone_at` to k + 2 (the
+// least such value wins). After the barrier of step k - 1 every thread sees every value
+// written before it, and values written after it are at least k + 1, so all
+// threads agree whether step k runs alone: from then on thread 0 runs the
+// remaining steps by itself and the others leave. Returns whether it did.
+bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
+    const std::size_t stride = static_cast<std::size_t>(team) + 1;
+    const long steps = static_cast<long>(passes) * kColours;
+    std::atomic<long> alone_at{steps};
+    std::exception_ptr failed;  // the exchange's error: every thread leaves, then it is thrown here
+#pragma omp parallel num_threads(team) shared(alone_at, failed)
+    {
+        double total_work = 0, total_wait = 0;
+        const std::size_t me = static_cast<std::size_t>(thread_index());
+        for (long k = 0; k < steps; ++k) {
+            const int c = static_cast<int>(k % kColours);
+            if (alone_at.load(std::memory_order_acquire) <= k) {
+                if (me == 0) {
+                    try {
+                        finish_alone(k, steps, warm);
+                    } catch (...) {
+                        failed = std::current_exception();
+                    }
+                }
+                break;
+            }
+            const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
+            const double t0 = now_seconds();
+            if (warm) warm_cells(r[me], r[me + 1]);
+            else relax_cells(r[me], r[me + 1]);
+            const double t1 = now_seconds();
+            seconds_[static_cast<std::size_t>(c) * stride + me] += t1 - t0;
+#pragma omp barrier
+            // The wait for this process's own threads; the exchange's wait is
+            // the other processes' pace, not a core taken from this one.
+            const double wait = now_seconds() - t1;
+            if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
+#pragma omp master
+                try {
+                    exchange_after(c);
+                } catch (...) {  // an exception may not leave a parallel region
+                    failed = std::current_exception();
+                }
+#pragma omp barrier
+                if (failed) break;
+            }
+            total_work += t1 - t0;
+            total_wait += wait;
+            if (gave_up(t1 - t0, wait, total_work, total_wait)) {
+                long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
+                while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
+                }
+            }
+        }
+    }
+    if (failed) std::rethrow_exception(failed);
+    return alone_at.load() < steps;
+}
+
+// Steps [from, steps) on this thread: the colours of the pass under way, then
+// whole passes.
+void ParallelContactSolver::finish_alone(long from, long steps, bool warm) {
+    for (long k = from; k < steps; ++k) {
+        const int c = static_cast<int>(k % kColours);
+        if (warm) warm_cells(layout().colour_begin(c), layout().colour_end(c));
+        else relax_cells(layout().colour_begin(c), layout().colour_end(c));
+        exchange_after(c);
+    }
+}
+
+}  // namespace parode::omp

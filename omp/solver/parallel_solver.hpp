@@ -1,0 +1,50 @@
+// The "parallel" solver: ContactSolver (src/solve/contact_solver) with its
+// sweeps on OpenMP threads; its other loops go through the OpenMP loop runner.
+// A sweep runs in one parallel region: the 8 colours in sequence, the cells of
+// a colour cut into one contiguous range per thread (cells are sorted in
+// space, so each thread keeps its bodies in cache; cells of one colour touch
+// disjoint bodies), a barrier after each colour. The ranges hold equal shares
+// of the time the threads measured on the previous sweep call (equal numbers
+// of contacts on the first): a contact's cost varies along a colour by 2x and
+// more at a million catoms (cache misses, plane against sphere rows), and
+// // equal contact counts left one thread waiting a third of the sweep. The
+// threads time their work and their waits: when a thread has waited at a
+// barrier longer than it worked and over a millisecond, and in all the call
+// so far has waited longer than it worked (another process holds a core and
+// the kernel deschedules a thread), the rest of the step runs on one thread,
+// two colours later (exec/team.hpp). The team is the execution's: the
+// solver's threads and verdicts are its pipeline's own.
+// Results are bit for bit those of the serial "pgs" for any thread count.
+// Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
+// above the crossover (README.md); the timing costs three clock reads a colour,
+// and a shared core still costs waits as long as the work before the verdict.
+#pragma once
+#include <vector>
+
+#include "solve/contact_solver.hpp"
+
+namespace parode::omp {
+
+class ParallelContactSolver final : public ContactSolver {
+public:
+    using ContactSolver::ContactSolver;
+    std::string name() const override { return "parallel"; }
+    void step(World& world, const ContactBuffer& contacts) override;
+
+private:
+    void sweep(int passes, bool warm) override;
+    void split(int team);
+    bool sweep_threaded(int passes, bool warm, int team);
+    void finish_alone(long from, long steps, bool warm);
+
+    std::vector<std::size_t> ranges_;  // colour-major: first cell of each thread's range, + end
+    // Colour-major, per thread: where its range began and ended as a share of
+    // the colour's contacts, and the seconds it worked there (this call).
+    std::vector<double> share_, seconds_;
+};
+
+// Contacts below which the sweeps run on one thread (measured:
+// docs/performance/threads-and-small-scenes.md).
+constexpr std::size_t kSweepCrossover = 1500;
+
+}  // namespace parode::omp

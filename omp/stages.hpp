@@ -1,0 +1,18 @@
+// Adds the OpenMP stage implementations to the stage registry
+// (run/stages.hpp): the "grid" and "grid-nolist" collide backends, the
+// threaded contact solver "parallel" (also "pgs/omp"), the threaded magnet
+// gather "magnets/omp" and the core's loop runner "loops/omp".
+// Trade-off: explicit registration (called from main, or by a program
+// linking parode) instead of static initialisers, which a static library's
+// linker would silently drop.
+#pragma once
+#include "run/stages.hpp"
+
+namespace parode::omp {
+// Adds the OpenMP implementations to `stages` (idempotent).
+void add_stages(Stages& stages = Stages::instance());
+// The threads OpenMP would use by default (OMP_NUM_THREADS, else every core;
+// 1 in a build without OpenMP): for callers that build an execution without
+// a count of their own.
+int default_threads();
+}  // namespace parode::omp

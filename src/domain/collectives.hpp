@@ -1,0 +1,71 @@
+// Collectives: what the processes of a run do together, for the stages that
+// reduce, gather or write (diagnostics, guard, checks, trajectories,
+// snapshots, checkpoints, the run report). This base class is one process:
+// its collectives return their input and it writes files with plain POSIX
+// I/O; mpi/ implements the same interface over MPI.
+// Every collective must be called by every process in the same order; a
+// reduction whose result the state depends on is exact (integer sums,
+// ExactSum digits, maxima), never a floating-point sum in MPI's order.
+// Trade-off: byte-vector gathers to one process are simple and general, and
+// fine for what goes through them (trajectory frames, CSV snapshots, failure
+// messages); H5MD snapshots go through all_to_all (each process writes a
+// block of ids), and the step's bulk traffic through the Decomposition.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "util/exact_sum.hpp"
+
+namespace parode {
+
+// One file written by every process together: the root's head at 0, fixed-
+// size records of bodies at records_at + gid * record (gids ascending), then
+// every process's tail, in rank order, from tail_at.
+struct FilePieces {
+    std::vector<char> head;  // root only
+    std::uint64_t records_at = 0;
+    std::size_t record = 0;
+    std::vector<std::uint32_t> gids;
+    std::vector<char> records;
+    std::uint64_t tail_at = 0;
+    std::vector<char> tail;
+};
+
+class Collectives {
+public:
+    virtual ~Collectives() = default;
+    virtual int rank() const { return 0; }
+    virtual int ranks() const { return 1; }
+    bool root() const { return rank() == 0; }
+    bool distributed() const { return ranks() > 1; }
+
+    // In place; every process gets the result.
+    virtual void sum(std::int64_t* v, int n) const;
+    virtual void sum_wrapping(std::uint64_t* v, int n) const;  // modulo 2^64
+    virtual void max(double* v, int n) const;
+    // Writes `pieces` of every process into one file (MPI-IO when
+    // distributed). Throws OutputError naming the file on failure.
+    virtual void write_file(const std::string& path, const FilePieces& pieces) const;
+    // Every process's bytes, in rank order: on every process (all) or on the
+    // root only (others get an empty list).
+    virtual std::vector<std::vector<char>> all_gather(const std::vector<char>& mine) const;
+    virtual std::vector<std::vector<char>> gather(const std::vector<char>& mine) const;
+    // out[r] goes to process r; returns what every process sent here, in rank order.
+    virtual std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const;
+    // Sets HDF5 property lists (hid_t values) so that every process opens and
+    // writes one file together: `file_access` gets the MPI-IO driver and
+    // `transfer` MPI-IO transfers when distributed; on one process both stay
+    // as they are (HDF5's POSIX driver, which needs no MPI).
+    virtual void h5_parallel(std::int64_t /*file_access*/, std::int64_t /*transfer*/) const {}
+
+    // Built on the collectives above.
+    void sum(ExactSum* s, int n) const;
+    double max(double v) const;
+    double min(double v) const;
+    std::int64_t sum(std::int64_t v) const;
+    // Every process's text joined in rank order (empty parts skipped).
+    std::string all_text(const std::string& mine, const std::string& separator) const;
+};
+
+}  // namespace parode

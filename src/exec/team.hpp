@@ -1,0 +1,64 @@
+// When the threaded stages of one pipeline use their threads. Two rules,
+// neither of which can change a result (every stage gives the same bits on
+// any thread count):
+// - Size: a loop or stage below its measured crossover runs on one thread
+//   (a parallel region costs a few microseconds, more than it saves on small
+//   scenes; the crossovers are in docs/performance.md, "Threads and small
+//   scenes"). ExecutionConfig::min_parallel overrides every crossover.
+// - Sharing: when another process holds one of our cores, every barrier waits
+//   for a thread the kernel has descheduled. The threaded sweeps of the
+//   contact solver time their threads' work and waits at every colour
+//   barrier; when a thread waits over a millisecond and longer than it worked
+//   (and, over the sweep call so far, has waited longer than it worked: a
+//   single wait is as likely the kernel's noise), the rest of the step's
+//   sweeps run on one thread, and so do all other stages from then on. On a
+//   distributed run the wait for the other processes' corrections after each
+//   colour is not counted: it is their pace, not a core taken from this one.
+//   Only the solver's iterations try threads again, on a later step (after
+//   1, 2, 4, ... 16 steps while the sharing lasts); when a try succeeds every
+//   stage has its threads back.
+// A Team belongs to one Execution (exec/execution.hpp), so two pipelines in
+// one process keep their own verdicts and thread counts.
+// Trade-off: a shared machine loses waits as long as the work per try, instead
+// of a descheduled thread's time slice at every barrier of every stage; a
+// machine that frees up waits up to 16 steps to get its threads back.
+#pragma once
+#include <cstddef>
+
+namespace parode {
+
+class Team {
+public:
+    // `threads` (>= 1) threads; `min_parallel` >= 0 replaces every crossover;
+    // not `adaptive`: sharing verdicts are ignored, threads always tried (to
+    // measure crossovers).
+    Team(int threads, long min_parallel, bool adaptive);
+    // Threads for a loop of `items` items whose crossover is `crossover` items
+    // (one while the cores are shared).
+    int threads(std::size_t items, std::size_t crossover) const;
+    // The same for the solver's sweeps, which try threads again now and then.
+    int sweep_threads(std::size_t items, std::size_t crossover) const;
+    int max_threads() const { return threads_; }
+    // The crossover in force for a loop whose measured one is `crossover`.
+    long crossover(long measured) const { return min_parallel_ >= 0 ? min_parallel_ : measured; }
+    // Sharing: whether this step may try threads; the sweep's verdict.
+    bool try_threads() const { return !shared_ || wait_ == 0; }
+    void verdict(bool shared);
+    bool shared() const { return shared_; }
+    // The solver's step begins and ends (a step run alone counts down the wait).
+    void begin_step() { alone_ = !try_threads(); }
+    void end_step() {
+        if (alone_ && wait_ > 0) --wait_;
+    }
+
+private:
+    int threads_ = 1;
+    long min_parallel_ = -1;
+    bool adaptive_ = true;
+    bool shared_ = false;
+    bool alone_ = false;  // this step runs on one thread
+    int wait_ = 0;        // steps to run alone before the next try
+    int backoff_ = 1;     // the wait after the next failed try
+};
+
+}  // namespace parode

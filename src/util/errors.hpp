@@ -1,0 +1,41 @@
+// The errors a run can end with, one type each, so that the command line maps
+// them to exit codes by type (cli/cli_common.cpp; README "Exit codes") and no
+// stage prints its own failures or picks its own code. Each derives from
+// std::runtime_error, so code that wants only a message catches them all.
+// A bad option or value given by the caller is std::invalid_argument (exit 2).
+// Trade-off: one header at the bottom of the layers, so that a stage of any
+// layer can throw any of them without including the layer that defined it.
+#pragma once
+#include <stdexcept>
+
+namespace parode {
+
+// A scene file (or a --set override) that cannot be run: names the file, the
+// line, the dotted key and what was expected. Exit code 3.
+class SceneError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// A run that cannot go on (NaN, runaway energy or speed, a broken invariant):
+// names the step and the bodies. Exit code 1.
+class SimulationError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// A file the user asked parode to write (report, trajectory, snapshot,
+// checkpoint) cannot be opened or written. Exit code 4.
+class OutputError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// A run refused because its memory estimate exceeds what the machine gives.
+// Exit code 6 (as std::bad_alloc).
+class MemoryError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+}  // namespace parode
