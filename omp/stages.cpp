@@ -2,9 +2,6 @@
 #include "omp/stages.hpp"
 
 #include <memory>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 #include "omp/grid/grid_collide.hpp"
 #include "omp/runtime/loop_runner.hpp"
@@ -31,14 +28,6 @@ void add_stages(Stages& stages) {
             return std::make_unique<ParallelContactSolver>(s, e);
         },
         {"pgs/omp"}, "pgs with its sweeps on the execution's threads: the same bits");
-}
-
-int default_threads() {
-#ifdef _OPENMP
-    return omp_get_max_threads();
-#else
-    return 1;
-#endif
 }
 
 }  // namespace parode::omp

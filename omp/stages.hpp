@@ -6,13 +6,10 @@
 // linking parode) instead of static initialisers, which a static library's
 // linker would silently drop.
 #pragma once
+#include "omp/runtime/loop_runner.hpp"  // default_threads
 #include "run/stages.hpp"
 
 namespace parode::omp {
 // Adds the OpenMP implementations to `stages` (idempotent).
 void add_stages(Stages& stages = Stages::instance());
-// The threads OpenMP would use by default (OMP_NUM_THREADS, else every core;
-// 1 in a build without OpenMP): for callers that build an execution without
-// a count of their own.
-int default_threads();
 }  // namespace parode::omp

@@ -20,7 +20,7 @@
 #include "omp/grid/grid_pairs.hpp"
 #include "omp/grid/lanes.hpp"
 #include "omp/grid/neighbour_list.hpp"
-#include "omp/stages.hpp"
+#include "omp/runtime/loop_runner.hpp"
 #include "util/substages.hpp"
 
 #ifdef _OPENMP
@@ -416,7 +416,7 @@ CollideEngine::CollideEngine(Execution* exec) : impl_(std::make_unique<Impl>()) 
 }
 
 CollideEngine::CollideEngine(const ExecutionConfig& config) : impl_(std::make_unique<Impl>()) {
-    impl_->own_exec = Stages::instance().execution(config);
+    impl_->own_exec = omp_execution(config);
     impl_->attach(impl_->own_exec.get());
 }
 
@@ -430,7 +430,7 @@ void CollideEngine::set_threads(int threads) {
     c.threads = threads > 0 ? threads : default_threads();
     if (impl_->own_exec && impl_->own_exec->threads() == c.threads) return;  // keeps its warm buffers
     c.threads_from = threads > 0 ? "CollideEngine::set_threads" : "OpenMP's default";
-    impl_->own_exec = Stages::instance().execution(c);
+    impl_->own_exec = omp_execution(c);
     impl_->attach(impl_->own_exec.get());
 }
 void CollideEngine::set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) {

@@ -108,8 +108,8 @@ void insertion_sort_hi(RunRef* first, RunRef* last) {
 }
 
 // Counting sort of a block on lo (its ids span a narrow range), then by hi;
-// returns where the sorted runs are (this thread's buffer, or the block itself).
-const RunRef* sort_block(RunRef* first, RunRef* last) {
+// returns where the sorted runs are (the thread's buffer `s`, or the block itself).
+const RunRef* sort_block(RunRef* first, RunRef* last, BlockSort& s) {
     const std::size_t n = static_cast<std::size_t>(last - first);
     if (n < 2) return first;
     std::uint32_t lo = first->lo, hi = first->lo;
@@ -121,8 +121,9 @@ const RunRef* sort_block(RunRef* first, RunRef* last) {
         std::sort(first, last, run_less);
         return first;
     }
-    thread_local std::vector<std::uint32_t> start, next;  // reused: no allocation per block
-    thread_local std::vector<RunRef> sorted;
+    std::vector<std::uint32_t>& start = s.start;  // kept by the merge: no allocation per block
+    std::vector<std::uint32_t>& next = s.next;
+    std::vector<RunRef>& sorted = s.sorted;
     start.assign(hi - lo + 2, 0);
     for (const RunRef* r = first; r < last; ++r) ++start[r->lo - lo + 1];
     for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
@@ -189,10 +190,14 @@ std::size_t write_run(const RunRef& r, const Lane* lane, const FastSource& fast,
 // Each block sorted and at once written out at its offset (stored runs
 // copied, grid sphere runs computed in place), while its runs are still in
 // this thread's cache; flags a block holding a pair twice.
-void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, const std::vector<std::size_t>& block_start,
-                    std::vector<RunRef>& refs, const std::vector<std::size_t>& offsets, std::vector<unsigned char>& rep_of,
-                    ContactBuffer& out) {
+void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, MergeScratch& m, ContactBuffer& out) {
+    const std::vector<std::size_t>& block_start = m.block_start;
+    const std::vector<std::size_t>& offsets = m.contacts;
+    std::vector<unsigned char>& rep_of = m.repeated;
+    std::vector<RunRef>& refs = m.refs;
     const std::size_t nb = block_start.size() - 1;
+    if (m.per_thread.size() < team_threads()) m.per_thread.resize(team_threads());
+    BlockSort* sorts = m.per_thread.data();
     const Dest dst = size_out(lanes, offsets[nb], out);  // every element is written below
     rep_of.assign(nb, 0);
     const Lane* lane = lanes.data();
@@ -201,10 +206,10 @@ void sort_and_write(const std::vector<Lane>& lanes, const FastSource& fast, cons
     const std::size_t* offset = offsets.data();
     unsigned char* rep = rep_of.data();
     const FastSource* src = &fast;
-#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, rep, nb, src)
+#pragma omp taskloop num_tasks(task_count(nb, 1)) default(none) firstprivate(dst, lane, ref, start, offset, rep, nb, src, sorts)
     for (std::size_t b = 0; b < nb; ++b) {
         const std::size_t n = start[b + 1] - start[b];
-        const RunRef* sorted = sort_block(ref + start[b], ref + start[b + 1]);
+        const RunRef* sorted = sort_block(ref + start[b], ref + start[b + 1], sorts[thread_index()]);
         std::size_t to = offset[b];
         for (std::size_t i = 0; i < n; ++i) {
             if (i + kAhead < n) prefetch_run(sorted[i + kAhead].a, sorted[i + kAhead].b, *src);
@@ -328,7 +333,7 @@ bool merge_lanes(std::vector<Lane>& lanes, const FastSource& fast, ContactBuffer
     outer_inner_offsets(lanes.size(), map.blocks, m.block_contacts, m.contacts);  // contacts: where each block's go
     scratch_resize(m.refs, m.block_start.back());
     scatter_runs(lanes, map, m.next, m.refs);
-    sort_and_write(lanes, fast, m.block_start, m.refs, m.contacts, m.repeated, out);
+    sort_and_write(lanes, fast, m, out);
     if (std::any_of(m.repeated.begin(), m.repeated.end(), [](unsigned char r) { return r != 0; })) out.sort_canonical();
     return false;
 }

@@ -87,11 +87,18 @@ struct RunRef {
     std::uint32_t lo, hi, lane, a, b;
 };
 
+// A thread's arrays for sorting one block of runs (lanes.cpp, sort_block).
+struct BlockSort {
+    std::vector<std::uint32_t> start, next;
+    std::vector<RunRef> sorted;
+};
+
 // Work arrays of the merge, kept between calls so no call allocates afresh.
 struct MergeScratch {
     std::vector<RunRef> refs;
     std::vector<std::size_t> next, block_start, block_contacts, contacts;
     std::vector<unsigned char> repeated;
+    std::vector<BlockSort> per_thread;  // by thread number in the merge's team
 };
 
 // All lanes' contacts in canonical order, into `out` (overwritten). Call inside

@@ -19,6 +19,14 @@ private:
     const Execution& exec_;
 };
 
+// The threads OpenMP would use by default (OMP_NUM_THREADS, else every core;
+// 1 in a build without OpenMP): for callers that build an execution without
+// a count of their own.
+int default_threads();
+// An execution of `config` on this runner: what a stage that runs without a
+// pipeline (a standalone CollideEngine) uses.
+std::unique_ptr<Execution> omp_execution(ExecutionConfig config);
+
 // Items below which a loop of the core runs on one thread (measured:
 // docs/performance/threads-and-small-scenes.md).
 constexpr std::size_t kLoopCrossover = 2048;

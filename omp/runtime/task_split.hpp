@@ -30,6 +30,15 @@ inline int thread_index() {
 #endif
 }
 
+// Threads of the current team (1 outside OpenMP).
+inline std::size_t team_threads() {
+#ifdef _OPENMP
+    return static_cast<std::size_t>(omp_get_num_threads());
+#else
+    return 1;
+#endif
+}
+
 inline std::size_t task_count(std::size_t n, std::size_t grain) {
 #ifdef _OPENMP
     const std::size_t team = static_cast<std::size_t>(omp_get_num_threads());

@@ -5,7 +5,6 @@
 #include <stdexcept>
 
 #include "domain/gather.hpp"
-#include "run/report.hpp"
 
 namespace parode {
 namespace {

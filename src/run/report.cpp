@@ -40,11 +40,6 @@ nlohmann::json build_info() {
     return b;
 }
 
-nlohmann::json solver_json(const SolverSpec& s) {
-    return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
-            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}};
-}
-
 namespace {
 
 nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {

@@ -20,7 +20,6 @@ struct RunInfo {
 };
 
 nlohmann::json build_info();
-nlohmann::json solver_json(const SolverSpec& s);
 nlohmann::json make_report(const Scene& scene, const Pipeline& pipeline, const RunInfo& info);
 void print_summary(std::ostream& os, const nlohmann::json& report);
 // The `error` block (error_metrics.hpp) as a few summary lines.

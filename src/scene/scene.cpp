@@ -77,4 +77,9 @@ int Scene::find_joint(const std::string& n) const {
     return -1;
 }
 
+nlohmann::json solver_json(const SolverSpec& s) {
+    return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
+            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}};
+}
+
 }  // namespace parode

@@ -4,6 +4,8 @@
 // Trade-off: a closed set of shapes, joints and controllers keeps validation
 // exhaustive and the model readable; new kinds are added here explicitly.
 #pragma once
+#include <nlohmann/json.hpp>
+
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -233,5 +235,8 @@ struct Scene {
     int find_body(const std::string& name) const;
     int find_joint(const std::string& name) const;
 };
+
+// The solver settings as the run report and trajectory files record them.
+nlohmann::json solver_json(const SolverSpec& s);
 
 }  // namespace parode

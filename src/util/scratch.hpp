@@ -22,7 +22,7 @@
 #pragma once
 #include <cstddef>
 
-#include "huge_pages.hpp"
+#include "util/huge_pages.hpp"
 
 namespace parode {
 

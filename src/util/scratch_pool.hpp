@@ -16,7 +16,7 @@
 #include <memory>
 #include <type_traits>
 
-#include "huge_pages.hpp"
+#include "util/huge_pages.hpp"
 
 namespace parode {
 
