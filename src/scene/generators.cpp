@@ -31,28 +31,60 @@ int catom_material(const Node& t, const Scene& sc) {
 
 }  // namespace
 
-void read_catoms(const Node& root, Scene& sc) {
+namespace {
+
+// [magnets] enabled and strength, as read_magnets and plan_catoms both need them.
+struct MagnetSwitch {
+    bool enabled = true;
+    double strength = MagnetModel{}.strength;
+};
+MagnetSwitch magnet_switch(const Node& t) {
+    MagnetSwitch m;
+    m.enabled = t.boolean("enabled", m.enabled);
+    m.strength = t.number("strength", m.strength, 0.0);
+    return m;
+}
+
+}  // namespace
+
+CatomPlan plan_catoms(const Node& root) {
+    CatomPlan p;
+    if (!root.has("catoms")) return p;
+    const Node t = root.at("catoms");
+    t.require_table();
+    p.count = t.integer("count", 1000, 1, 100000000);
+    p.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
+    p.spacing = t.number("spacing", 2 * p.radius, p.radius, limits::kMaxSize);  // overlap at most one radius
+    if (root.has("magnets")) {
+        const Node m = root.at("magnets");
+        m.require_table();
+        const MagnetSwitch s = magnet_switch(m);
+        p.magnets = s.enabled && s.strength != 0;
+    }
+    return p;
+}
+
+void read_catoms(const Node& root, const CatomPlan& plan, Scene& sc) {
     if (!root.has("catoms")) return;
     const Node t = root.at("catoms");
     t.expect_keys({"count", "radius", "mass", "layout", "spacing", "jitter", "material", "base",
                    "velocity"});
-    const long count = t.integer("count", 1000, 1, 100000000);
     t.choice("layout", "prism", {"prism"});
     BodySpec proto;
     proto.catom = true;
     proto.shape.kind = ShapeKind::Sphere;
-    proto.shape.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
+    proto.shape.radius = plan.radius;
     proto.mass = t.number("mass", 1.0, limits::kMinMass, limits::kMaxMass);
     proto.material = catom_material(t, sc);
     proto.velocity = t.vec3_length("velocity", proto.velocity, limits::max_speed(sc.dt), limits::speed_text(sc.dt));
     const double r = proto.shape.radius;
     CatomBlock& c = sc.catoms;
     c.first = sc.bodies.size();
-    c.count = static_cast<std::size_t>(count);
-    c.spacing = t.number("spacing", 2 * r, r, limits::kMaxSize);  // overlap at most one radius
+    c.count = static_cast<std::size_t>(plan.count);
+    c.spacing = plan.spacing;
     c.jitter = t.number("jitter", 0.01, 0.0, 1.0) * r;
     c.base = t.vec3("base", Vec3{0, 0, 0}, limits::kMaxCoordinate, limits::coordinate_text());
-    prism_dims(count, c.dims);
+    prism_dims(plan.count, c.dims);
     c.seed = sc.seed;
     c.proto = proto;
 }
@@ -115,11 +147,12 @@ void read_magnets(const Node& root, Scene& sc) {
     const Node t = root.at("magnets");
     t.expect_keys({"enabled", "layout", "strength", "softening", "cutoff", "off"});
     MagnetModel& m = sc.magnets;
-    m.enabled = t.boolean("enabled", true);
+    const MagnetSwitch s = magnet_switch(t);
+    m.enabled = s.enabled;
     const std::string layout = t.choice("layout", "axes6", {"axes6", "cube8"});
     if (layout == "axes6") layout_axes6(m);
     else layout_cube8(m);
-    m.strength = t.number("strength", m.strength, 0.0);
+    m.strength = s.strength;
     m.softening = t.number("softening", m.softening, 1e-9);
     m.cutoff = t.number("cutoff", m.cutoff, 1e-9);
     for (auto& b : sc.bodies) b.magnets = b.catom && m.enabled;

@@ -17,7 +17,17 @@ namespace parode {
 // Prism dimensions for `count` catoms: nx = ny = ceil(cbrt(count)), nz layers.
 void prism_dims(long count, long dims[3]);
 
-void read_catoms(const Node& root, Scene& sc);
+// The [catoms] prism as the file declares it, before its bodies exist: its
+// size keys, read (and checked) once, here, and whether magnets will act on it.
+struct CatomPlan {
+    long count = 0;  // 0: no [catoms] table
+    double radius = 0.5;
+    double spacing = 1.0;
+    bool magnets = false;  // [magnets] switched on with a non-zero strength
+};
+CatomPlan plan_catoms(const Node& root);
+// The prism's other keys, with the size keys from `plan` (plan_catoms).
+void read_catoms(const Node& root, const CatomPlan& plan, Scene& sc);
 void read_magnets(const Node& root, Scene& sc);
 
 bool joint_param_known(const std::string& name);

@@ -325,23 +325,6 @@ void read_parallel(const Node& root, ParallelSpec& p) {
     p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
 }
 
-// The [catoms] table's size keys, read with the bounds read_catoms applies.
-CatomPlan plan_catoms(const Node& root) {
-    CatomPlan p;
-    if (!root.has("catoms")) return p;
-    const Node t = root.at("catoms");
-    t.require_table();
-    p.count = t.integer("count", 1000, 1, 100000000);
-    p.radius = t.number("radius", 0.5, limits::kMinSize, limits::kMaxSize);
-    p.spacing = t.number("spacing", 2 * p.radius, p.radius, limits::kMaxSize);
-    if (root.has("magnets")) {
-        const Node m = root.at("magnets");
-        m.require_table();
-        p.magnets = m.boolean("enabled", true) && m.number("strength", MagnetModel{}.strength, 0.0) != 0;
-    }
-    return p;
-}
-
 Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides,
                   const BeforeCatoms& before_catoms) {
     for (const auto& o : overrides) apply_override(data, o);
@@ -359,9 +342,10 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     read_statics(root, sc);
     read_joints(root, sc);
     read_controller(root, sc);
-    if (before_catoms) before_catoms(sc, plan_catoms(root));
+    const CatomPlan catoms = plan_catoms(root);
+    if (before_catoms) before_catoms(sc, catoms);
     const std::size_t hand_written = sc.bodies.size();
-    read_catoms(root, sc);
+    read_catoms(root, catoms, sc);
     read_magnets(root, sc);
     if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     limits::check_mass_ratio(root, sc, hand_written);

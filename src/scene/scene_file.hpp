@@ -6,18 +6,11 @@
 #include <string>
 #include <vector>
 
+#include "scene/generators.hpp"  // CatomPlan
 #include "scene/scene.hpp"
 #include "scene/toml_reader.hpp"
 
 namespace parode {
-
-// The [catoms] prism as the file declares it, before its bodies exist.
-struct CatomPlan {
-    long count = 0;  // 0: no [catoms] table
-    double radius = 0.5;
-    double spacing = 1.0;
-    bool magnets = false;  // [magnets] switched on with a non-zero strength
-};
 
 // Called once the scene is validated up to the catom prism, before the prism's
 // bodies are generated (a count of 1e8 is 20 GB of bodies): it may throw to
