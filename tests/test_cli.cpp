@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "cli_common.hpp"
-#include "scratch_dir.hpp"
+#include "binary.hpp"
 #include "util/errors.hpp"
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
@@ -43,11 +43,7 @@ const std::string kTennis = kSourceDir + "/jobs/scenes/tennis.toml";
 const std::string kMagnetic = kSourceDir + "/jobs/scenes/magnetic-tennis.toml";
 const std::string kSmall = " --set catoms.count=8 --steps 20 --threads 1 -q";
 
-struct Result {
-    int rc = -1;
-    std::string out;
-    std::string err;
-};
+using parode::test::Result;
 
 class Cli : public parode::test::ScratchDirTest {
 protected:
@@ -56,15 +52,7 @@ protected:
     // `parode ARGS` with stdout and stderr captured separately; `env`
     // ("NAME=value ") is set for that command alone.
     Result parode(const std::string& args, const std::string& env = "") const {
-        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd = env + "'" + PARODE_BINARY + "' " + args + " >'" + out.string() + "' 2>'" +
-                                err.string() + "'";
-        const int status = std::system(cmd.c_str());
-        Result r;
-        r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.out = slurp(out);
-        r.err = slurp(err);
-        return r;
+        return parode::test::run_parode({args, env, "", dir_, 0});
     }
 
     // Runs a small simulation of `scene` and returns its parsed report.
@@ -74,7 +62,7 @@ protected:
         const Result r = parode("run '" + scene + "'" + kSmall + extra + " --report '" + path.string() + "'");
         EXPECT_EQ(r.rc, 0) << r.err;
         EXPECT_TRUE(fs::exists(path)) << r.err;
-        return nlohmann::json::parse(slurp(path));  // throws (fails the test) unless valid JSON
+        return parode::test::read_json(path);
     }
 };
 

@@ -16,7 +16,7 @@
 #include <sstream>
 #include <string>
 
-#include "scratch_dir.hpp"
+#include "binary.hpp"
 
 namespace {
 
@@ -27,17 +27,11 @@ class Defaults : public parode::test::ScratchDirTest {
 protected:
     Defaults() : ScratchDirTest("defaults") {}
     // `env parode run ARGS --report r.json`: the exit code; report() reads r.json.
-    int run(const std::string& args, const std::string& env = "env -u OMP_NUM_THREADS -u SLURM_CPUS_PER_TASK") const {
-        const std::string cmd = "cd '" + dir_.string() + "' && " + env + " '" + PARODE_BINARY + "' run " + args +
-                                " --steps 3 -q --report r.json 2>err.txt >/dev/null";
-        const int status = std::system(cmd.c_str());
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    int run(const std::string& args, const std::string& env = "-u OMP_NUM_THREADS -u SLURM_CPUS_PER_TASK") const {
+        return parode::test::run_parode({"run " + args + " --steps 3 -q --report r.json", env, "", dir_, 0}).rc;
     }
-    nlohmann::json report() const {
-        std::ifstream in(dir_ / "r.json");
-        return nlohmann::json::parse(in);
-    }
-    std::string err() const { return parode::test::slurp(dir_ / "err.txt"); }
+    nlohmann::json report() const { return parode::test::read_json(dir_ / "r.json"); }
+    std::string err() const { return parode::test::slurp(dir_ / "stderr.txt"); }
     std::string scene(const std::string& run_table) const {
         const fs::path p = dir_ / "s.toml";
         std::ofstream(p) << "[scene]\nname = \"s\"\n[catoms]\ncount = 8\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\n" << run_table;

@@ -23,7 +23,7 @@
 #include "domain/cells.hpp"
 #include "run/memory_estimate.hpp"
 #include "scene/scene_file.hpp"
-#include "scratch_dir.hpp"
+#include "binary.hpp"
 
 namespace {
 
@@ -41,15 +41,14 @@ struct Info {
 Info info(const std::string& scene, const std::string& args = "") {
     const fs::path dir = fs::temp_directory_path() / ("parode_test_info_" + std::to_string(::getpid()));
     fs::create_directories(dir);
-    const fs::path json = dir / "info.json", out = dir / "out.txt";
+    const fs::path json = dir / "info.json";
     fs::remove(json);
-    const std::string cmd = std::string("'") + PARODE_BINARY + "' info '" + kSourceDir + "/jobs/scenes/" + scene + "' " +
-                            args + " --json '" + json.string() + "' >'" + out.string() + "' 2>&1";
-    const int status = std::system(cmd.c_str());
+    const parode::test::Result run = parode::test::run_parode(
+        {"info '" + kSourceDir + "/jobs/scenes/" + scene + "' " + args + " --json '" + json.string() + "'", "", "", dir, 0});
     Info r;
-    r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    if (fs::exists(json)) r.j = nlohmann::json::parse(slurp(json));
+    r.rc = run.rc;
+    r.out = run.out + run.err;
+    if (fs::exists(json)) r.j = parode::test::read_json(json);
     fs::remove_all(dir);
     return r;
 }

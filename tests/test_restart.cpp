@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "io/checkpoint.hpp"
-#include "scratch_dir.hpp"
+#include "binary.hpp"
 
 namespace {
 
@@ -32,15 +32,8 @@ const std::string kScenes = std::string(PARODE_SOURCE_DIR) + "/jobs/scenes/";
 class Restart : public parode::test::ScratchDirTest {
 protected:
     Restart() : ScratchDirTest("restart") {}
-    int parode(const std::string& args) const {
-        const std::string cmd = "cd '" + dir_.string() + "' && '" + PARODE_BINARY + "' " + args + " 2>stderr.txt >/dev/null";
-        const int status = std::system(cmd.c_str());
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    }
-    nlohmann::json report(const std::string& name) const {
-        std::ifstream in(dir_ / name);
-        return nlohmann::json::parse(in);
-    }
+    int parode(const std::string& args) const { return parode::test::run_parode({args, "", "", dir_, 0}).rc; }
+    nlohmann::json report(const std::string& name) const { return parode::test::read_json(dir_ / name); }
     std::string err() const { return parode::test::slurp(dir_ / "stderr.txt"); }
 };
 

@@ -12,30 +12,18 @@ namespace parode {
 
 // A scene file (or a --set override) that cannot be run: names the file, the
 // line, the dotted key and what was expected. Exit code 3.
-class SceneError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+struct SceneError : std::runtime_error { using std::runtime_error::runtime_error; };
 
 // A run that cannot go on (NaN, runaway energy or speed, a broken invariant):
 // names the step and the bodies. Exit code 1.
-class SimulationError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+struct SimulationError : std::runtime_error { using std::runtime_error::runtime_error; };
 
 // A file the user asked parode to write (report, trajectory, snapshot,
 // checkpoint) cannot be opened or written. Exit code 4.
-class OutputError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+struct OutputError : std::runtime_error { using std::runtime_error::runtime_error; };
 
 // A run refused because its memory estimate exceeds what the machine gives.
 // Exit code 6 (as std::bad_alloc).
-class MemoryError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+struct MemoryError : std::runtime_error { using std::runtime_error::runtime_error; };
 
 }  // namespace parode

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "scratch_dir.hpp"
+#include "binary.hpp"
 
 namespace mpi_runs {
 
@@ -25,11 +25,7 @@ namespace fs = std::filesystem;
 
 inline const std::string kSource = PARODE_SOURCE_DIR;
 
-struct Result {
-    int rc = -1;
-    std::string err;
-};
-
+using parode::test::Result;
 using parode::test::slurp;
 
 inline std::size_t count(const std::string& text, const std::string& what) {
@@ -44,15 +40,12 @@ protected:
 
     // `parode ARGS` on `ranks` processes (0: without mpiexec), stderr kept.
     Result run(int ranks, const std::string& args, int timeout_s = 240) const {
-        const fs::path err = dir_ / "stderr.txt";
-        std::string launcher = ranks > 0 ? std::string(PARODE_MPIEXEC) + " -n " + std::to_string(ranks) + " --oversubscribe " : "";
-        const std::string env = "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive ";
-        const std::string cmd = env + "timeout -k 5 " + std::to_string(timeout_s) + " " + launcher + "'" + PARODE_BINARY + "' " +
-                                args + " >/dev/null 2>'" + err.string() + "'";
-        const int status = std::system(cmd.c_str());
-        return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+        const std::string launcher =
+            ranks > 0 ? std::string(PARODE_MPIEXEC) + " -n " + std::to_string(ranks) + " --oversubscribe " : "";
+        return parode::test::run_parode({args, "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive",
+                                         launcher, dir_, timeout_s});
     }
-    nlohmann::json report(const std::string& name) const { return nlohmann::json::parse(slurp(dir_ / name)); }
+    nlohmann::json report(const std::string& name) const { return parode::test::read_json(dir_ / name); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
 };
 
