@@ -24,6 +24,7 @@
 #include "run/memory_estimate.hpp"
 #include "run/pipeline.hpp"
 #include "scene/scene_file.hpp"
+#include "util/launcher.hpp"
 #include "util/text.hpp"
 
 namespace parode::cli {
@@ -78,22 +79,13 @@ int parse_threads(const char* name, const char* env) {
     return static_cast<int>(n);
 }
 
-// Ranks of this node, when an MPI launcher says.
-int local_ranks() {
-    for (const char* v : {"OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS", "SLURM_NTASKS_PER_NODE"}) {
-        long n = 0;
-        if (const char* s = std::getenv(v); s && parse_long(s, n) && n > 0) return static_cast<int>(n);
-    }
-    return 1;
-}
-
 Threads affinity_threads() {
     cpu_set_t set;
     CPU_ZERO(&set);
     if (sched_getaffinity(0, sizeof set, &set) != 0) return {1, "one core (the affinity mask could not be read)"};
     const int mine = std::max(1, CPU_COUNT(&set));
     const long online = sysconf(_SC_NPROCESSORS_ONLN);
-    const int ranks = local_ranks();
+    const int ranks = launcher::local_size();
     if (ranks > 1 && mine >= online) {
         return {std::max(1, mine / ranks), "the node's " + std::to_string(mine) + " cores shared by its " +
                                                std::to_string(ranks) + " ranks"};

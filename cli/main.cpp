@@ -268,8 +268,9 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        const int rc = app.exit(e);
-        return rc == 0 ? 0 : kExitUsage;
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+        std::cerr << "parode: " << e.what() << "\n" << "Run with --help for more information.\n";
+        return kExitUsage;
     }
     return guarded([&] {
         parode::huge_pages_wanted();  // a bad PARODE_HUGE_PAGES stops here, before any work

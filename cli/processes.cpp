@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "util/launcher.hpp"
+
 #ifdef PARODE_HAVE_MPI
 #include "comm.hpp"
 #endif
@@ -13,14 +15,6 @@ namespace parode::cli {
 namespace {
 
 Processes* g_current = nullptr;
-
-// Copies started by a launcher when MPI is not built in.
-[[maybe_unused]] int launcher_size() {
-    for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS"}) {
-        if (const char* s = std::getenv(v)) return std::max(1, std::atoi(s));
-    }
-    return 1;
-}
 
 }  // namespace
 
@@ -45,8 +39,8 @@ Processes::Processes(int& argc, char**& argv) {
 #else
     (void)argc;
     (void)argv;
-    if (launcher_size() > 1) {
-        throw std::invalid_argument("this parode was built without MPI, and " + std::to_string(launcher_size()) +
+    if (launcher::size() > 1) {
+        throw std::invalid_argument("this parode was built without MPI, and " + std::to_string(launcher::size()) +
                                     " copies of it would each simulate the whole scene; build it with the ci, mpi "
                                     "or hybrid preset, or run it without a launcher");
     }
@@ -66,7 +60,7 @@ void Processes::abort(int code) const {
 
 std::pair<double, double> Processes::latency([[maybe_unused]] int rounds, [[maybe_unused]] std::size_t bytes) const {
 #ifdef PARODE_HAVE_MPI
-    if (size_ > 1) return {mpi_->comm.ping_pong_latency(rounds), mpi_->comm.exchange_round(rounds, bytes)};
+    if (size_ > 1) return {mpi_->comm.ping_pong_latency(rounds, bytes), mpi_->comm.exchange_round(rounds, bytes)};
 #endif
     return {0.0, 0.0};
 }

@@ -30,8 +30,8 @@ public:
     [[noreturn]] void abort(int code) const;
     // One line on what runs where, for --version and the report.
     std::string describe() const;
-    // Collective: {ping-pong latency, one neighbour-exchange round with
-    // `bytes` per message} in seconds; zeros on one process.
+    // Collective: {ping-pong one way, one neighbour-exchange round}, each with
+    // `bytes` per message, in seconds; zeros on one process.
     std::pair<double, double> latency(int rounds, std::size_t bytes) const;
 
     static Processes* current();

@@ -36,7 +36,8 @@ std::string version_text() {
     s += dCheckConfiguration("ODE_double_precision") ? "double precision\n" : "single precision\n";
     s += omp.empty() ? "OpenMP: no (every stage runs on one thread)\n"
                      : "OpenMP: yes (" + omp + "), up to " + std::to_string(kMaxThreads) + " threads\n";
-    s += mpi.empty() ? "MPI: no" : "MPI: library found (" + mpi + "), no stage uses it yet";
+    s += mpi.empty() ? "MPI: no (runs on one process)"
+                     : "MPI: yes (" + mpi + "): distributed runs under mpirun, mpiexec or srun";
     const std::string h5 = hdf5_version();
     s += h5.empty() ? "\nHDF5: no (snapshots as CSV only)" : "\nHDF5: " + h5 + " (H5MD snapshots)";
     return s;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job on the default scene: sets up and builds (jobs/setup.sh), then
-# collapses the 1,000-ball tennis prism for 1,000 steps with ODE's hash space,
+# collapses the 1,000-ball tennis prism for 1,000 steps with the scene's [run]
+# choices (the grid collider and parode's contact solver, on every core),
 # prints the summary and writes the JSON run report to results/tennis.json.
 # Extra arguments go to `parode run` (e.g. --set catoms.count=8000 --threads 2).
 set -euo pipefail

@@ -51,6 +51,12 @@ SCENES = {
 }
 
 
+# The reference runs ODE's own path whatever the scene's [run] table chooses.
+REFERENCE = ["--solver", "ode", "--collide", "ode-hash"]
+# Configurations that vary a QuickStep setting run ODE's stepper.
+QUICK = ["@--solver", "@ode"]
+
+
 def configs(scene, dt):
     """Configuration name -> [--set value, or @option]."""
     c = {"default": []}
@@ -60,7 +66,7 @@ def configs(scene, dt):
         for it in (5, 10, 40, 80):
             c[f"it{it}"] = [f"solver.iterations={it}"]
         for w in (1.0, 1.6):
-            c[f"w{w:g}"] = [f"solver.sor_w={w:g}"]
+            c[f"w{w:g}"] = QUICK + [f"solver.sor_w={w:g}"]
         c[f"dt{dt * 2:g}-it40"] = [f"scene.dt={dt * 2:g}", "solver.iterations=40"]
         c[f"dt{dt * 0.5:g}-it10"] = [f"scene.dt={dt * 0.5:g}", "solver.iterations=10"]
         c["grid-2threads"] = ["@--collide", "@grid", "@--threads", "@2"]
@@ -71,9 +77,9 @@ def configs(scene, dt):
         for it in (5, 10):
             c[f"parallel-it{it}"] = par + ["@--threads", "@2", f"solver.iterations={it}"]
     else:
-        c["quick-it20"] = ["solver.stepper=quick", "solver.iterations=20"]
-        c["quick-it50"] = ["solver.stepper=quick", "solver.iterations=50"]
-        c["quick-it100"] = ["solver.stepper=quick", "solver.iterations=100"]
+        c["quick-it20"] = QUICK + ["solver.stepper=quick", "solver.iterations=20"]
+        c["quick-it50"] = QUICK + ["solver.stepper=quick", "solver.iterations=50"]
+        c["quick-it100"] = QUICK + ["solver.stepper=quick", "solver.iterations=100"]
     for erp in (0.1, 0.5):
         c[f"erp{erp:g}"] = [f"solver.erp={erp:g}"]
     for cfm in (1e-6, 1e-4):
@@ -169,7 +175,7 @@ def references(args, name, base):
     ref_traj = rel(os.path.join(traj, f"reference-{ref_key}.traj"))
     report = os.path.join(out, "reference.json")
     if needed(args, report, ref_key) or (ref_key not in args.done and not os.path.exists(os.path.join(ROOT, ref_traj))):
-        run(args, scene_file, base["duration"], sets, ["--threads", "1", "--trajectory", ref_traj], report,
+        run(args, scene_file, base["duration"], sets, REFERENCE + ["--threads", "1", "--trajectory", ref_traj], report,
             {"role": "reference", "key": ref_key, "config": "reference", "run": 1})
     if not os.path.exists(os.path.join(ROOT, ref_traj)):
         sys.exit(f"sweep: the {name} reference failed, see {report}")
@@ -178,7 +184,8 @@ def references(args, name, base):
         seed_sets = sets + [f"scene.seed={seed}"]
         key = key_of(base=base["key"], sets=seed_sets, reference=ref_key)
         if needed(args, report, key):
-            run(args, scene_file, base["duration"], seed_sets, ["--threads", "1", "--reference", ref_traj], report,
+            run(args, scene_file, base["duration"], seed_sets, REFERENCE + ["--threads", "1", "--reference", ref_traj],
+                report,
                 {"role": "noise-floor", "key": key, "reference_key": ref_key, "config": f"reference-seed{seed}",
                  "run": 1})
     return ref_traj, ref_key

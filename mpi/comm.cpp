@@ -7,6 +7,7 @@
 #endif
 
 #include "util/errors.hpp"
+#include "util/launcher.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -67,12 +68,7 @@ Bytes receive_probed(MPI_Message& msg, MPI_Status& st) {
 
 }  // namespace
 
-bool launched() {
-    for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALNRANKS"}) {
-        if (std::getenv(v)) return true;
-    }
-    return false;
-}
+bool launched() { return launcher::launched(); }
 
 Session::Session(int& argc, char**& argv) {
     int provided = 0;
@@ -295,17 +291,18 @@ void Comm::h5_parallel(std::int64_t, std::int64_t) const { throw std::logic_erro
 
 void Comm::abort(int code) const { MPI_Abort(MPI_COMM_WORLD, code); std::abort(); }
 
-double Comm::ping_pong_latency(int rounds) const {
-    char byte = 0;
+double Comm::ping_pong_latency(int rounds, std::size_t bytes) const {
+    Bytes msg(std::max<std::size_t>(bytes, 1), 0);
+    const int n = static_cast<int>(msg.size());
     MPI_Barrier(MPI_COMM_WORLD);
     const double t0 = MPI_Wtime();
     for (int r = 0; r < rounds && size_ > 1; ++r) {
         if (rank_ == 0) {
-            MPI_Send(&byte, 1, MPI_BYTE, 1, 99, MPI_COMM_WORLD);
-            MPI_Recv(&byte, 1, MPI_BYTE, 1, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Send(msg.data(), n, MPI_BYTE, 1, 99, MPI_COMM_WORLD);
+            MPI_Recv(msg.data(), n, MPI_BYTE, 1, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         } else if (rank_ == 1) {
-            MPI_Recv(&byte, 1, MPI_BYTE, 0, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            MPI_Send(&byte, 1, MPI_BYTE, 0, 99, MPI_COMM_WORLD);
+            MPI_Recv(msg.data(), n, MPI_BYTE, 0, 99, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Send(msg.data(), n, MPI_BYTE, 0, 99, MPI_COMM_WORLD);
         }
     }
     double t = (MPI_Wtime() - t0) / (2.0 * rounds);

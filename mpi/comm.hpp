@@ -79,9 +79,9 @@ public:
     void h5_parallel(std::int64_t file_access, std::int64_t transfer) const;
 
     [[noreturn]] void abort(int code) const;
-    // Point-to-point latency between ranks 0 and 1, measured by a ping-pong
-    // of `rounds` one-byte messages (collective; seconds one way).
-    double ping_pong_latency(int rounds) const;
+    // Point-to-point time between ranks 0 and 1, measured by a ping-pong of
+    // `rounds` messages of `bytes` bytes (collective; seconds one way).
+    double ping_pong_latency(int rounds, std::size_t bytes) const;
     // Seconds of one round of exchange() in which every process swaps a
     // message of `bytes` with every other (collective; the mean of `rounds`).
     double exchange_round(int rounds, std::size_t bytes) const;

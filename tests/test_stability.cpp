@@ -113,6 +113,31 @@ TEST(Guard, NonFiniteStateStopsAtOnceAndDumpsLastGoodState) {
     std::filesystem::remove(dump);
 }
 
+// Two of eight bodies over guard.max_speed: the message counts two and
+// names those two, fastest first, and none of the bodies under the limit.
+TEST(Guard, SpeedLimitNamesOnlyTheBodiesOverIt) {
+    std::string text = "[scene]\nname = \"fast\"\n[guard]\nmax_speed = 50.0\n";
+    for (int i = 0; i < 8; ++i) {
+        text += "[[bodies]]\nname = \"b" + std::to_string(i) + "\"\nposition = [" + std::to_string(3 * i) + ".0, 0.0, 10.0]\n";
+    }
+    const Scene sc = load_scene_text(text, "fast");
+    RunOptions opt;
+    opt.collide = "ode-simple";
+    Pipeline p(sc, opt);
+    for (int i = 0; i < 8; ++i) dBodySetLinearVel(p.world().body(i), 10.0 + i, 0, 0);  // 10..17 m/s
+    dBodySetLinearVel(p.world().body(2), 70, 0, 0);
+    dBodySetLinearVel(p.world().body(5), 90, 0, 0);
+    try {
+        p.step();
+        FAIL() << "the guard did not stop the run";
+    } catch (const SimulationError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("2 bodies move faster than guard.max_speed = 50 m/s (fastest: 5 ("), std::string::npos) << m;
+        EXPECT_NE(m.find(", 2 ("), std::string::npos) << m;
+        EXPECT_EQ(m.find(", 7 ("), std::string::npos) << "a body under the limit named: " << m;
+    }
+}
+
 // The overlap case gains ~120 J legitimately; a 10 J bound makes that a runaway.
 TEST(Guard, RunawayEnergyStopsTheRunNamingStepAndBodies) {
     const Scene sc = test::repo_scene("jobs/scenes/hard/overlap.toml", {"guard.max_energy_gain=10.0"});

@@ -80,14 +80,15 @@ std::string first_nan_ids(const World& world, const Collectives& domain, std::si
 
 }  // namespace
 
-std::string fastest_bodies(const World& world, const Collectives& domain, std::size_t limit) {
+std::string fastest_bodies(const World& world, const Collectives& domain, std::size_t limit, double above) {
     struct Entry {
         double speed;
         std::uint32_t gid;
     };
     std::vector<Entry> v;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (!world.ghost(i)) v.push_back({speed(world.body(i)), world.gid(i)});
+        const double s = speed(world.body(i));
+        if (!world.ghost(i) && !(s <= above)) v.push_back({s, world.gid(i)});  // NaN speeds are listed
     }
     auto faster = [](const Entry& a, const Entry& b) { return a.speed > b.speed || (a.speed == b.speed && a.gid < b.gid); };
     const std::size_t k = std::min(limit, v.size());
@@ -170,7 +171,7 @@ void Guard::check_step(const World& world, long step, bool known_finite, double 
     if (bad[1]) {
         std::ostringstream os;
         os << bad[1] << " bodies move faster than guard.max_speed = " << vmax << " m/s (fastest: "
-           << fastest_bodies(world, domain_, 5) << ")";
+           << fastest_bodies(world, domain_, 5, vmax) << ")";
         fail(world, step, os.str());
     }
 }

@@ -68,7 +68,8 @@ private:
     State good_;
 };
 
-// Collective: the `limit` fastest bodies of all processes, "gid (speed m/s)" joined.
-std::string fastest_bodies(const World& world, const Collectives& domain, std::size_t limit);
+// Collective: the `limit` fastest bodies of all processes whose speed is
+// above `above` (m/s; negative: any), "gid (speed m/s)" joined.
+std::string fastest_bodies(const World& world, const Collectives& domain, std::size_t limit, double above = -1.0);
 
 }  // namespace parode

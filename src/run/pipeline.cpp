@@ -66,6 +66,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     if (!restart_meta_.is_null()) restore_run_state(restart_meta_.at("run"));
     if (options.record_trajectory) {
         trajectory_ = std::make_unique<Trajectory>(make_trajectory(scene));
+        trajectory_->meta["solver"]["backend"] = solver_->name();  // what ran, not only the [solver] table
+        trajectory_->meta["collide"] = backend_->name();
         trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, collectives()));
     }
     timed(Stage::Output, [&] {

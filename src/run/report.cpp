@@ -168,6 +168,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["steps_wall_s"] = step_wall;  // wall_s and the first step's collision, if run before the loop
     r["backends"] = backends_json(p);
     r["solver"] = solver_json(scene.solver);
+    r["solver"]["backend"] = p.solver().name();  // what ran: "parallel", "ode-quickstep", ...
     nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object(), ranks = nlohmann::json::object();
     for (int s = 0; s < kStageCount; ++s) {
         const StageState& st = p.stage(static_cast<Stage>(s));
@@ -247,9 +248,11 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
 
 void print_error_summary(std::ostream& os, const nlohmann::json& e) {
     const auto& ref = e["reference"];
-    os << "  error against " << ref.value("scene", std::string("?")) << " (dt " << ref.value("dt", 0.0) << ", "
-       << ref["solver"].value("stepper", std::string("?")) << ", " << ref["solver"].value("iterations", 0)
-       << " iterations), " << e["matched_frames"] << " matched frames\n";
+    // A trajectory or report written before the backend was recorded names its stepper only.
+    const std::string solver = ref["solver"].value("backend", ref["solver"].value("stepper", std::string("?")) + " stepper");
+    os << "  error against " << ref.value("scene", std::string("?")) << " (dt " << ref.value("dt", 0.0) << ", solver "
+       << solver << ", " << ref["solver"].value("iterations", 0) << " iterations), " << e["matched_frames"]
+       << " matched frames\n";
     for (const auto& h : e["trajectory"]) {
         os << "    after " << h["step"] << " steps: position RMS " << h["rms"].get<double>() << " m, max "
            << h["max"].get<double>() << " m\n";
