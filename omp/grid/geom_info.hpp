@@ -11,7 +11,7 @@
 // Trade-off: a copy of 64 bytes per geom (a few flops more wherever an AABB is
 // read) in exchange for never touching ODE's scattered geom memory again in the
 // broadphase; the full 136-byte record cost three cache lines a geom in every
-// pass over the table (measured at 10^6: README.md, "the geom table").
+// pass over the table (measured at 10^6: docs/performance/million-catoms.md, "the geom table").
 #pragma once
 #include <ode/ode.h>
 

@@ -31,8 +31,8 @@ namespace parode::omp {
 namespace {
 
 constexpr std::size_t kGridChunk = 256;  // sorted geoms per task in the grid pass
-// Geoms below which a call runs on one thread (measured: README.md, "Threads
-// and small scenes").
+// Geoms below which a call runs on one thread (measured:
+// docs/performance/threads-and-small-scenes.md).
 constexpr std::size_t kCollideCrossover = 2000;
 constexpr std::size_t kScanChunk = 512;  // geoms per task in scans against a few geoms
 

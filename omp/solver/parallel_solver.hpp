@@ -16,7 +16,8 @@
 // solver's threads and verdicts are its pipeline's own.
 // Results are bit for bit those of the serial "pgs" for any thread count.
 // Trade-off: 8 barriers per iteration (160 a step at 20 iterations), worth it
-// above the crossover (README.md); the timing costs three clock reads a colour,
+// above the crossover (docs/performance/threads-and-small-scenes.md); the
+// timing costs three clock reads a colour,
 // and a shared core still costs waits as long as the work before the verdict.
 #pragma once
 #include <vector>

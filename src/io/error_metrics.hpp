@@ -38,7 +38,7 @@ PileObservables observables(const Trajectory& t, const Frame& f);
 // (run frame, reference frame) index pairs of equal simulated time.
 std::vector<std::pair<std::size_t, std::size_t>> match_frames(const Trajectory& run, const Trajectory& ref);
 
-// The `error` block of the run report (README "Error against a reference"). Throws std::runtime_error when the two
+// The `error` block of the run report (README "Speed against error"). Throws std::runtime_error when the two
 // trajectories are not of the same scene (body count) or share no frame.
 nlohmann::json compare_trajectories(const Trajectory& run, const Trajectory& ref,
                                     const std::vector<long>& horizons = {10, 50, 200});

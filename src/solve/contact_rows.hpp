@@ -15,7 +15,7 @@
 // the build's, so the same bits.
 // Trade-off: two code paths for one contact model, and the tangents and
 // effective masses recomputed at every relaxation (a square root and two
-// divisions per contact: the sweeps measured 2-4 % slower at 10^6, README.md)
+// divisions per contact: the sweeps measured 2-4 % slower at 10^6, docs/performance/million-catoms.md)
 // for 24 bytes less per contact; the sphere path drops the rounding-level
 // angular terms the general Jacobian carries, so the two agree to rounding,
 // not bit for bit (test_contact_rows holds them together).

@@ -14,7 +14,7 @@
 // records, inside the measured step. On a VM that hands free memory back to
 // its host, a fresh 2 MB page took 4 ms to fault against 0.8 ms in 4 KB
 // pages (0.2 ms for a recycled one); the contacts' merge at 10^6 catoms took
-// 14-15 ms a later step, 9 with small pages for its growth (README.md,
+// 14-15 ms a later step, 9 with small pages for its growth (docs/performance/million-catoms.md,
 // "Growth room in small pages").
 // Trade-off: the contents are lost on growth, so these are only for vectors
 // every element of which the caller writes after sizing; a Room::Small
