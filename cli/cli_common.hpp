@@ -140,6 +140,11 @@ struct InfoArgs {
 };
 void add_info(CLI::App& app, InfoArgs& a, std::function<int()>& action);
 
+struct KeysArgs {
+    std::string json;
+};
+void add_keys(CLI::App& app, KeysArgs& a, std::function<int()>& action);
+
 // Writes a JSON document; throws std::runtime_error naming the file.
 void write_json(const std::string& path, const nlohmann::json& j);
 

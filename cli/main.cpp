@@ -1,5 +1,6 @@
 // The `parode` command line: `parode run SCENE ...`, `parode info SCENE ...`,
-// `parode bench ...`, `parode compare ...`, `parode latency`, `parode memory`, `parode --version`.
+// `parode bench ...`, `parode compare ...`, `parode latency`, `parode memory`, `parode keys`,
+// `parode --version`.
 // Under mpirun every process runs this; the root prints and writes (processes.hpp).
 // Exit codes (README "Exit codes"):
 //   0  success
@@ -258,6 +259,7 @@ int main(int argc, char** argv) {
     LatencyArgs latency_args;
     MemoryArgs memory_args;
     InfoArgs info_args;
+    KeysArgs keys_args;
     std::function<int()> action;
     add_run(app, run_args, action);
     add_bench(app, bench_args, action);
@@ -265,6 +267,7 @@ int main(int argc, char** argv) {
     add_latency(app, latency_args, action);
     add_memory(app, memory_args, action);
     add_info(app, info_args, action);
+    add_keys(app, keys_args, action);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "scene/limits.hpp"
+#include "scene/scene_keys.hpp"
 
 namespace parode {
 
@@ -67,8 +68,7 @@ CatomPlan plan_catoms(const Node& root) {
 void read_catoms(const Node& root, const CatomPlan& plan, Scene& sc) {
     if (!root.has("catoms")) return;
     const Node t = root.at("catoms");
-    t.expect_keys({"count", "radius", "mass", "layout", "spacing", "jitter", "material", "base",
-                   "velocity"});
+    t.expect_keys(table_keys("catoms"));
     t.choice("layout", "prism", {"prism"});
     BodySpec proto;
     proto.catom = true;
@@ -145,7 +145,7 @@ void read_magnets_off(const Node& off, Scene& sc) {
 void read_magnets(const Node& root, Scene& sc) {
     if (!root.has("magnets")) return;
     const Node t = root.at("magnets");
-    t.expect_keys({"enabled", "layout", "strength", "softening", "cutoff", "off"});
+    t.expect_keys(table_keys("magnets"));
     MagnetModel& m = sc.magnets;
     const MagnetSwitch s = magnet_switch(t);
     m.enabled = s.enabled;

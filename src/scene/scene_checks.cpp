@@ -1,6 +1,8 @@
 // [guard] and [checks] readers (see scene_checks.hpp).
 #include "scene/scene_checks.hpp"
 
+#include "scene/scene_keys.hpp"
+
 namespace parode {
 namespace {
 
@@ -21,7 +23,7 @@ int checked_body(const Scene& sc, const Node& t) {
 }
 
 PositionCheck read_position_check(const Scene& sc, const Node& t) {
-    t.expect_keys({"body", "axis", "min", "max", "always"});
+    t.expect_keys(table_keys("[[checks.position]]"));
     PositionCheck c;
     c.body = checked_body(sc, t);
     const std::string axis = t.choice("axis", "z", {"x", "y", "z"});
@@ -39,7 +41,7 @@ PositionCheck read_position_check(const Scene& sc, const Node& t) {
 void read_guard(const Node& root, GuardSpec& g) {
     if (!root.has("guard")) return;
     const Node t = root.at("guard");
-    t.expect_keys({"energy", "max_energy_gain", "max_speed"});
+    t.expect_keys(table_keys("guard"));
     g.energy = t.boolean("energy", g.energy);
     g.max_energy_gain = opt_number(t, "max_energy_gain", 0.0);
     g.max_speed = t.number("max_speed", g.max_speed, 1e-9, g.max_speed);  // at most the speed bound at this dt
@@ -48,8 +50,7 @@ void read_guard(const Node& root, GuardSpec& g) {
 void read_checks(const Node& root, Scene& sc) {
     if (!root.has("checks")) return;
     const Node t = root.at("checks");
-    t.expect_keys({"max_penetration", "max_final_penetration", "max_energy_gain", "max_displacement", "max_final_speed", "min_disabled",
-                   "max_escaped", "position"});
+    t.expect_keys(table_keys("checks"));
     CheckSpec& c = sc.checks;
     c.max_penetration = opt_number(t, "max_penetration", 0.0);
     c.max_final_penetration = opt_number(t, "max_final_penetration", 0.0);

@@ -12,6 +12,7 @@
 #include "scene/generators.hpp"
 #include "scene/limits.hpp"
 #include "scene/scene_checks.hpp"
+#include "scene/scene_keys.hpp"
 #include "util/hash.hpp"
 
 namespace parode {
@@ -35,10 +36,11 @@ bool parallel(const Vec3& a, const Vec3& b) {
     return std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) < 1e-6;
 }
 
-Quat read_rotation(const Node& t) {
+// `table`: "[[bodies]]" or "[[statics]]", whose rotation keys apply.
+Quat read_rotation(const Node& t, const std::string& table) {
     if (!t.has("rotation")) return Quat{1, 0, 0, 0};
     const Node r = t.at("rotation");
-    r.expect_keys({"axis", "angle"});
+    r.expect_keys(table_keys(table + ".rotation"));
     const Vec3 axis = unit_vector(r, "axis", Vec3{0, 0, 1});
     const double angle = r.number_required("angle");
     const double s = std::sin(angle / 2);
@@ -81,7 +83,7 @@ int material_index(const Scene& sc, const Node& t, const std::string& key) {
 
 void read_scene_table(const Node& root, Scene& sc) {
     const Node t = root.at("scene");
-    t.expect_keys({"name", "description", "seed", "steps", "dt", "gravity", "observe_every"});
+    t.expect_keys(table_keys("scene"));
     sc.name = t.string("name", "");
     if (sc.name.empty()) t.fail("name", "a non-empty string");
     sc.seed = static_cast<std::uint64_t>(t.integer("seed", 1, 0, std::numeric_limits<long>::max()));
@@ -95,8 +97,7 @@ void read_scene_table(const Node& root, Scene& sc) {
 void read_solver(const Node& root, SolverSpec& s) {
     if (!root.has("solver")) return;
     const Node t = root.at("solver");
-    t.expect_keys({"stepper", "iterations", "sor_w", "erp", "cfm", "contact_surface_layer",
-                   "contact_max_correcting_vel", "max_contacts", "warm_start", "auto_disable"});
+    t.expect_keys(table_keys("solver"));
     s.stepper = t.choice("stepper", "quick", {"quick", "world"}) == "quick" ? Stepper::Quick : Stepper::World;
     s.iterations = static_cast<int>(t.integer("iterations", s.iterations, 1, 100000));
     s.sor_w = t.number("sor_w", s.sor_w, 0.01, 2.0);
@@ -108,7 +109,7 @@ void read_solver(const Node& root, SolverSpec& s) {
     s.warm_start = t.boolean("warm_start", s.warm_start);
     if (!t.has("auto_disable")) return;
     const Node a = t.at("auto_disable");
-    a.expect_keys({"enabled", "linear", "angular", "steps"});
+    a.expect_keys(table_keys("solver.auto_disable"));
     s.auto_disable = a.boolean("enabled", true);
     s.auto_disable_linear = a.number("linear", s.auto_disable_linear, 0.0);
     s.auto_disable_angular = a.number("angular", s.auto_disable_angular, 0.0);
@@ -121,9 +122,10 @@ void read_materials(const Node& root, Scene& sc) {
         return;
     }
     const Node arr = root.at("materials");
+    const std::vector<std::string> keys = table_keys("[[materials]]");
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
-        t.expect_keys({"name", "mu", "bounce", "bounce_vel", "soft_erp", "soft_cfm", "slip"});
+        t.expect_keys(keys);
         Material m;
         m.name = t.string("name", "");
         if (m.name.empty()) t.fail("name", "a non-empty string");
@@ -142,10 +144,10 @@ void read_materials(const Node& root, Scene& sc) {
 void read_bodies(const Node& root, Scene& sc) {
     if (!root.has("bodies")) return;
     const Node arr = root.at("bodies");
+    const std::vector<std::string> keys = table_keys("[[bodies]]");
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
-        t.expect_keys({"name", "shape", "radius", "length", "size", "mass", "position", "rotation",
-                       "velocity", "angular_velocity", "material", "catom"});
+        t.expect_keys(keys);
         BodySpec b;
         b.name = t.string("name", "");
         if (b.name.empty()) t.fail("name", "a non-empty string");
@@ -153,7 +155,7 @@ void read_bodies(const Node& root, Scene& sc) {
         b.shape = read_shape(t);
         b.mass = t.number("mass", 1.0, limits::kMinMass, limits::kMaxMass);
         b.position = t.vec3("position", b.position, limits::kMaxCoordinate, limits::coordinate_text());
-        b.orientation = read_rotation(t);
+        b.orientation = read_rotation(t, "[[bodies]]");
         b.velocity = t.vec3_length("velocity", b.velocity, limits::max_speed(sc.dt), limits::speed_text(sc.dt));
         b.angular_velocity = t.vec3_length("angular_velocity", b.angular_velocity, limits::max_turn_rate(sc.dt),
                                            limits::turn_rate_text(sc.dt));
@@ -167,14 +169,15 @@ void read_bodies(const Node& root, Scene& sc) {
 void read_statics(const Node& root, Scene& sc) {
     if (!root.has("statics")) return;
     const Node arr = root.at("statics");
+    const std::vector<std::string> keys = table_keys("[[statics]]");
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
-        t.expect_keys({"name", "shape", "radius", "length", "size", "position", "rotation", "material"});
+        t.expect_keys(keys);
         StaticGeom g;
         g.name = t.string("name", "static" + std::to_string(i));
         g.shape = read_shape(t);
         g.position = t.vec3("position", g.position, limits::kMaxCoordinate, limits::coordinate_text());
-        g.orientation = read_rotation(t);
+        g.orientation = read_rotation(t, "[[statics]]");
         g.material = material_index(sc, t, "material");
         sc.statics.push_back(g);
     }
@@ -183,9 +186,10 @@ void read_statics(const Node& root, Scene& sc) {
 void read_planes(const Node& root, Scene& sc) {
     if (!root.has("planes")) return;
     const Node arr = root.at("planes");
+    const std::vector<std::string> keys = table_keys("[[planes]]");
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
-        t.expect_keys({"normal", "offset", "material"});
+        t.expect_keys(keys);
         PlaneSpec p;
         p.normal = unit_vector(t, "normal", p.normal);
         p.offset = t.number("offset", 0.0, -limits::kMaxCoordinate, limits::kMaxCoordinate);
@@ -208,8 +212,11 @@ void read_joint_params(const Node& t, JointSpec& j) {
     if (!t.has("params")) return;
     const Node p = t.at("params");
     p.require_table();
+    const std::vector<std::string> listed = table_keys("[[joints]].params");  // names without the 2/3 suffix
     for (const auto& kv : p.value().as_table()) {
-        if (!joint_param_known(kv.first)) {
+        std::string base = kv.first;
+        if (!base.empty() && (base.back() == '2' || base.back() == '3')) base.pop_back();
+        if (!joint_param_known(kv.first) || std::find(listed.begin(), listed.end(), base) == listed.end()) {
             throw SceneError(where(kv.second) + ": unknown joint parameter '" + p.key_path(kv.first) +
                              "' (expected one of: " + joint_param_names() + ")");
         }
@@ -221,9 +228,10 @@ void read_joint_params(const Node& t, JointSpec& j) {
 void read_joints(const Node& root, Scene& sc) {
     if (!root.has("joints")) return;
     const Node arr = root.at("joints");
+    const std::vector<std::string> keys = table_keys("[[joints]]");
     for (std::size_t i = 0; i < arr.array_size(); ++i) {
         const Node t = arr.index(i);
-        t.expect_keys({"name", "type", "bodies", "anchor", "axis1", "axis2", "params"});
+        t.expect_keys(keys);
         JointSpec j;
         j.name = t.string("name", "joint" + std::to_string(i));
         const std::string type = t.choice("type", "hinge", {"hinge2", "hinge", "ball", "fixed"});
@@ -275,9 +283,7 @@ void controller_start(const Node& t, const Scene& sc, ControllerSpec& c) {
 void read_controller(const Node& root, Scene& sc) {
     if (!root.has("controller")) return;
     const Node t = root.at("controller");
-    t.expect_keys({"type", "steer", "drive", "radius", "wheel_radius", "wheelbase", "heading_gain", "track_gain",
-                   "pace_gain", "steer_amplitude", "speed_min", "speed_max", "speed_period", "steer_gain",
-                   "steer_fmax", "drive_fmax"});
+    t.expect_keys(table_keys("controller"));
     ControllerSpec& c = sc.controller;
     c.path = t.choice("type", "figure-eight", {"figure-eight", "straight"}) == "straight" ? DrivePath::Straight
                                                                                          : DrivePath::FigureEight;
@@ -305,7 +311,7 @@ void read_controller(const Node& root, Scene& sc) {
 void read_run(const Node& root, RunSpec& r) {
     if (!root.has("run")) return;
     const Node t = root.at("run");
-    t.expect_keys({"collide", "solver", "threads"});
+    t.expect_keys(table_keys("run"));
     if (t.has("collide")) {
         r.collide = t.string("collide", "");
         r.collide_where = where(t.at("collide").value()) + ": key 'run.collide'";
@@ -320,7 +326,7 @@ void read_run(const Node& root, RunSpec& r) {
 void read_parallel(const Node& root, ParallelSpec& p) {
     if (!root.has("parallel")) return;
     const Node t = root.at("parallel");
-    t.expect_keys({"rebalance_threshold", "rebalance_every"});
+    t.expect_keys(table_keys("parallel"));
     p.rebalance_threshold = t.number("rebalance_threshold", p.rebalance_threshold, 1.0);
     p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
 }
@@ -329,8 +335,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
                   const BeforeCatoms& before_catoms) {
     for (const auto& o : overrides) apply_override(data, o);
     const Node root(data, "");
-    root.expect_keys({"scene", "solver", "materials", "planes", "bodies", "statics", "joints",
-                      "catoms", "magnets", "controller", "guard", "checks", "parallel", "run"});
+    root.expect_keys(table_keys(""));
     Scene sc;
     sc.source = name;
     read_scene_table(root, sc);

@@ -72,14 +72,12 @@ std::size_t Node::array_size() const {
     return v_->as_array().size();
 }
 
-void Node::expect_keys(std::initializer_list<const char*> allowed) const {
+void Node::expect_keys(const std::vector<std::string>& allowed) const {
     require_table();
     for (const auto& kv : v_->as_table()) {
-        bool ok = false;
-        for (const char* a : allowed) ok = ok || kv.first == a;
-        if (ok) continue;
+        if (std::find(allowed.begin(), allowed.end(), kv.first) != allowed.end()) continue;
         std::string list;
-        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
         throw SceneError(where(kv.second) + ": unknown key '" + key_path(kv.first) +
                          "' (expected one of: " + list + ")");
     }

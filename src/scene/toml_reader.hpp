@@ -30,8 +30,9 @@ public:
     Node at(const std::string& key) const;  // required key
     Node index(std::size_t i) const;        // array element
 
-    // Fails if the table has keys outside `allowed`.
-    void expect_keys(std::initializer_list<const char*> allowed) const;
+    // Fails if the table has keys outside `allowed` (the readers pass
+    // table_keys(...) of scene_keys.hpp, so the reference lists every key).
+    void expect_keys(const std::vector<std::string>& allowed) const;
     void require_table() const;
     std::size_t array_size() const;  // fails unless an array
 

@@ -86,7 +86,7 @@ std::string contact_solver_unsupported(const Scene& scene) {
 
 void add_reference_solvers(SolverRegistry& r) {
     r.add("ode", [](const Scene& s, Execution&) { return make_ode_solver(s, ""); }, {},
-          "ODE's own stepper (dWorldQuickStep, or dWorldStep with solver.stepper = \"step\"): the reference");
+          "ODE's own stepper (dWorldQuickStep, or dWorldStep with solver.stepper = \"world\"): the reference");
     r.add("ode-threaded",
           [](const Scene& s, Execution& e) { return std::make_unique<OdeThreadedSolver>(s, e.threads()); }, {},
           "ODE's staged QuickStep on ODE's own thread pool (not reproducible with 2+ threads)");
