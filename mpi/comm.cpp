@@ -8,6 +8,7 @@
 
 #include "util/errors.hpp"
 #include "util/launcher.hpp"
+#include "util/substages.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -74,6 +75,9 @@ Session::Session(int& argc, char**& argv) {
     int provided = 0;
     check(MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
     if (provided < MPI_THREAD_FUNNELED) throw std::runtime_error("the MPI library does not support MPI_THREAD_FUNNELED");
+    // Errors come back as codes (check() turns them into exceptions), so
+    // that a message longer than a posted receive is reported, not fatal.
+    MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
 }
 
 Session::~Session() { MPI_Finalize(); }
@@ -81,6 +85,15 @@ Session::~Session() { MPI_Finalize(); }
 Comm::Comm() {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    if (const char* env = std::getenv("PARODE_INJECT_LATENCY_US"); env && *env) {
+        char* end = nullptr;
+        const double us = std::strtod(env, &end);
+        if (end == env || *end != '\0' || !(us >= 0 && us <= 1e6)) {
+            throw std::invalid_argument(std::string("PARODE_INJECT_LATENCY_US=") + env +
+                                        ": expected microseconds, a number in [0, 1000000]");
+        }
+        latency_ = us * 1e-6;
+    }
 }
 
 void Comm::sum(std::int64_t* v, int n) const {
@@ -161,6 +174,7 @@ std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
 // round has been received somewhere.
 std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int tag) const {
     Clock c(stats_);
+    const double began = now_seconds();
     std::vector<MPI_Request> sends;
     for (const auto& [dest, bytes] : out) {
         sends.emplace_back();
@@ -188,27 +202,87 @@ std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Byt
         }
     }
     std::sort(in.begin(), in.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    hold_until(began);
     return in;
 }
 
+struct PendingExchange::Impl {
+    std::vector<MPI_Request> sends, recvs;  // recvs: MPI_REQUEST_NULL where the size was not known
+    const std::vector<int>* from = nullptr;
+    std::vector<Bytes>* in = nullptr;
+    int tag = 0;
+    double began = 0;
+};
+
+PendingExchange::PendingExchange() : impl(std::make_unique<Impl>()) {}
+PendingExchange::~PendingExchange() = default;
+
 void Comm::exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
                     std::vector<Bytes>& in, int tag) const {
+    PendingExchange p;
+    post_exchange(to, out, from, in, nullptr, tag, p);
+    complete_exchange(p);
+}
+
+void Comm::post_exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
+                         std::vector<Bytes>& in, const std::vector<std::size_t>* sizes, int tag,
+                         PendingExchange& p) const {
     Clock c(stats_);
-    std::vector<MPI_Request> sends(to.size());
+    PendingExchange::Impl& x = *p.impl;
+    x.began = now_seconds();
+    x.from = &from;
+    x.in = &in;
+    x.tag = tag;
+    in.resize(from.size());
+    x.recvs.assign(from.size(), MPI_REQUEST_NULL);
+    for (std::size_t j = 0; sizes && j < from.size(); ++j) {
+        in[j].resize((*sizes)[j]);
+        check(MPI_Irecv(in[j].data(), static_cast<int>(in[j].size()), MPI_BYTE, from[j], tag, MPI_COMM_WORLD, &x.recvs[j]),
+              "MPI_Irecv");
+    }
+    x.sends.assign(to.size(), MPI_REQUEST_NULL);
     for (std::size_t i = 0; i < to.size(); ++i) {
-        check(MPI_Isend(out[i].data(), static_cast<int>(out[i].size()), MPI_BYTE, to[i], tag, MPI_COMM_WORLD, &sends[i]),
+        check(MPI_Isend(out[i].data(), static_cast<int>(out[i].size()), MPI_BYTE, to[i], tag, MPI_COMM_WORLD, &x.sends[i]),
               "MPI_Isend");
         stats_.bytes += out[i].size();
         ++stats_.messages;
     }
-    in.resize(from.size());
-    for (std::size_t j = 0; j < from.size(); ++j) {
+}
+
+void Comm::complete_exchange(PendingExchange& p) const {
+    Clock c(stats_);
+    PendingExchange::Impl& x = *p.impl;
+    for (std::size_t j = 0; j < x.from->size(); ++j) {
+        if (x.recvs[j] != MPI_REQUEST_NULL) continue;
         MPI_Message msg;
         MPI_Status st;
-        check(MPI_Mprobe(from[j], tag, MPI_COMM_WORLD, &msg, &st), "MPI_Mprobe");
-        receive_probed_into(msg, st, in[j]);
+        check(MPI_Mprobe((*x.from)[j], x.tag, MPI_COMM_WORLD, &msg, &st), "MPI_Mprobe");
+        receive_probed_into(msg, st, (*x.in)[j]);
     }
-    check(MPI_Waitall(static_cast<int>(sends.size()), sends.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+    std::vector<MPI_Status> got(x.recvs.size());
+    const int rc = MPI_Waitall(static_cast<int>(x.recvs.size()), x.recvs.data(), got.data());
+    check(MPI_Waitall(static_cast<int>(x.sends.size()), x.sends.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+    if (rc == MPI_ERR_IN_STATUS) {
+        for (std::size_t j = 0; j < got.size(); ++j) {
+            if (got[j].MPI_ERROR == MPI_ERR_TRUNCATE) throw MessageTooLong(j, (*x.in)[j].size());
+        }
+    }
+    check(rc, "MPI_Waitall");
+    for (std::size_t j = 0; j < got.size(); ++j) {  // a posted receive got a shorter message: its size
+        if ((*x.from)[j] < 0 || (*x.in)[j].empty()) continue;
+        int n = 0;
+        if (got[j].MPI_SOURCE == (*x.from)[j] && MPI_Get_count(&got[j], MPI_BYTE, &n) == MPI_SUCCESS &&
+            static_cast<std::size_t>(n) < (*x.in)[j].size()) {
+            (*x.in)[j].resize(static_cast<std::size_t>(n));
+        }
+    }
+    hold_until(x.began);
+}
+
+void Comm::hold_until(double since) const {
+    if (latency_ <= 0) return;
+    while (now_seconds() < since + latency_) {
+    }
 }
 
 namespace {

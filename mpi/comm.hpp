@@ -12,6 +12,8 @@
 #pragma once
 #include <cstdint>
 #include <map>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -40,6 +42,27 @@ struct CommStats {
     std::uint64_t messages = 0; // sent
 };
 
+// A message longer than the receive posted for it (post_exchange with
+// sizes): the index into `from` and the bytes expected.
+class MessageTooLong : public std::runtime_error {
+public:
+    MessageTooLong(std::size_t from_index, std::size_t expected_bytes)
+        : std::runtime_error("a message longer than expected"), index(from_index), expected(expected_bytes) {}
+    std::size_t index, expected;
+};
+
+// A neighbour exchange under way (Comm::post_exchange), finished by
+// Comm::complete_exchange. Owns the requests; one exchange at a time each.
+class PendingExchange {
+public:
+    PendingExchange();
+    ~PendingExchange();
+    PendingExchange(const PendingExchange&) = delete;
+    PendingExchange& operator=(const PendingExchange&) = delete;
+    struct Impl;
+    std::unique_ptr<Impl> impl;
+};
+
 class Comm {
 public:
     Comm();  // MPI_COMM_WORLD
@@ -62,6 +85,18 @@ public:
     // each of `from`; in[j] is what from[j] sent (its buffer reused).
     void exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
                   std::vector<Bytes>& in, int tag) const;
+    // exchange() in two halves, so that work can run while the messages
+    // travel: post_exchange sends (out must stay untouched until complete)
+    // and, when `sizes` gives the bytes expected from each of `from`, posts
+    // the receives into `in`; complete_exchange receives what was not posted
+    // (probed, any size) and waits for everything.
+    void post_exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
+                       std::vector<Bytes>& in, const std::vector<std::size_t>* sizes, int tag, PendingExchange& p) const;
+    void complete_exchange(PendingExchange& p) const;
+    // PARODE_INJECT_LATENCY_US (a testing aid): every point-to-point exchange
+    // completes no sooner than this many seconds after it began, as on a
+    // network of that latency; 0 when unset.
+    double injected_latency() const { return latency_; }
 
     // Collective MPI-IO: the root's `head` at 0; `records` (one of `record`
     // bytes per entry of `gids`, ascending) at records_at + gid * record,
@@ -89,7 +124,10 @@ public:
     const CommStats& stats() const { return stats_; }
 
 private:
+    // Waits until `since` + the injected latency (now_seconds' clock).
+    void hold_until(double since) const;
     int rank_ = 0, size_ = 1;
+    double latency_ = 0;  // seconds, from PARODE_INJECT_LATENCY_US
     mutable CommStats stats_;
 };
 

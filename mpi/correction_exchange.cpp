@@ -59,24 +59,51 @@ void pack_corrections(const World& world, const std::vector<std::uint32_t>& list
 
 }  // namespace
 
-void MpiDomain::bad_message(std::size_t j, std::size_t got, std::size_t expected) const {
+void MpiDomain::bad_message(std::size_t j, std::size_t got, std::size_t expected, bool more) const {
     throw std::runtime_error("rank " + std::to_string(rank()) + ": a correction message from rank " +
-                             std::to_string(nbrs_[j]) + " has " + std::to_string(got) + " bytes, not the " +
-                             std::to_string(expected) + " expected");
+                             std::to_string(nbrs_[j]) + " has " + (more ? "more than " : "") + std::to_string(got) +
+                             " bytes, not the " + std::to_string(expected) + " expected");
+}
+
+// Without overlap every body counts as shared: every cell is a boundary
+// cell, relaxed before the exchange, as one blocking exchange a colour.
+bool MpiDomain::shared(std::uint32_t local) const {
+    if (!scene_.parallel.overlap) return true;
+    const DomainSlot& s = world_->slot(local);
+    return s.holders && s.holders->size() > 1;
 }
 
 // The ids travel once a step per colour and neighbour; the other 20 messages
 // of the colour carry only corrections, which go straight to the locals
 // learnt from the first (both sides call plan() each step and then exchange
 // the colours in the same sequence, so they agree which message is first).
-void MpiDomain::exchange(int colour, const CorrectionView& fc) {
+// Those later messages have sizes known in advance: their receives are
+// posted at once, so that the data move while the interior cells relax.
+void MpiDomain::post(int colour, const CorrectionView& fc) {
     const auto c = static_cast<std::size_t>(colour);
     const bool named = !corr_named_[c];
     corr_named_[c] = 1;
     const std::size_t n = nbrs_.size();
     corr_out_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) pack_corrections(*world_, corr_[c][j], named, fc, corr_out_[j]);
-    comm_.exchange(nbrs_, corr_out_, nbrs_, corr_recv_, kTagCorrection);
+    for (std::size_t j = 0; j < n; ++j) {
+        pack_corrections(*world_, corr_[c][j], named, fc, corr_out_[j]);
+        colour_bytes_[c] += corr_out_[j].size();
+    }
+    expect_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) expect_[j] = corr_in_[c][j].size() * kSix;
+    comm_.post_exchange(nbrs_, corr_out_, nbrs_, corr_recv_, named ? nullptr : &expect_, kTagCorrection, pending_);
+    posted_named_ = named;
+}
+
+void MpiDomain::complete(int colour, const CorrectionView& fc) {
+    const auto c = static_cast<std::size_t>(colour);
+    const bool named = posted_named_;
+    const std::size_t n = nbrs_.size();
+    try {
+        comm_.complete_exchange(pending_);
+    } catch (const MessageTooLong& e) {
+        bad_message(e.index, e.expected, e.expected, true);
+    }
     for (std::size_t j = 0; j < n; ++j) {
         const Bytes& b = corr_recv_[j];
         const char* r = b.data();

@@ -152,11 +152,13 @@ void MpiDomain::partition(std::vector<CellLoad> mine) {
             if (!held[r].empty()) std::memcpy(held[r].data(), parts[r].data(), parts[r].size());
             all.insert(all.end(), held[r].begin(), held[r].end());
         }
-        Partition p = partition_cells(merge_cells(std::move(all)), ranks());
+        Partition p = partition_cells(merge_cells(std::move(all)), ranks(),
+                                      scene_.parallel.balance_colours ? Balance::Colours : Balance::Total);
         keep_owners(p, held, ranks());
         put(result, static_cast<std::uint64_t>(p.keys.size()));
         put(result, p.edge_cut);
         put(result, p.imbalance);
+        put(result, p.colour_imbalance);
         for (std::size_t i = 0; i < p.keys.size(); ++i) {
             put(result, p.keys[i]);
             put(result, static_cast<std::int32_t>(p.owner[i]));
@@ -167,6 +169,7 @@ void MpiDomain::partition(std::vector<CellLoad> mine) {
     const auto n = take<std::uint64_t>(result, at);
     edge_cut_ = take<std::int64_t>(result, at);
     partition_imbalance_ = take<double>(result, at);
+    partition_colour_imbalance_ = take<double>(result, at);
     std::vector<std::uint64_t> keys(n);
     std::vector<int> owners(n);
     for (std::uint64_t i = 0; i < n; ++i) {
@@ -490,10 +493,16 @@ nlohmann::json MpiDomain::report() const {
     const double seconds = all.seconds - setup.seconds;
     comm_.sum(c, 4);
     comm_.sum_wrapping(&messages, 1);
+    std::array<std::uint64_t, 8> bytes = colour_bytes_;
+    comm_.sum_wrapping(bytes.data(), static_cast<int>(bytes.size()));
     const double n = world_ ? static_cast<double>(world_->global_body_count()) : 1.0;
     return {{"ranks", ranks()},
+            {"colour_bytes", bytes},
+            {"injected_latency_us", 1e6 * comm_.injected_latency()},
             {"imbalance", imbalance_},
             {"partition_imbalance", partition_imbalance_},
+            {"partition_colour_imbalance", partition_colour_imbalance_},
+            {"balance", scene_.parallel.balance_colours ? "colours" : "total"},
             {"edge_cut", edge_cut_},
             {"ghost_fraction", static_cast<double>(c[0]) / n},
             {"migrations", c[2]},

@@ -78,8 +78,12 @@ public:
     nlohmann::json report() const override;
     std::string why() const override;
 
+    bool shared(std::uint32_t local) const override;
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
-    void exchange(int colour, const CorrectionView& fc) override;
+    void post(int colour, const CorrectionView& fc) override;
+    void complete(int colour, const CorrectionView& fc) override;
+    // Bytes this process sent in the solver's exchange after each colour.
+    const std::array<std::uint64_t, 8>& colour_bytes() const { return colour_bytes_; }
 
     // For tests: the cell map of the last partition and what moved.
     const CellMap& cell_map() const { return map_; }
@@ -108,7 +112,7 @@ private:
         if (++stamp_ == 0) stamp_ = 1;
     }
     // Stops the run: neighbour j's correction message is not the size expected.
-    [[noreturn]] void bad_message(std::size_t j, std::size_t got, std::size_t expected) const;
+    [[noreturn]] void bad_message(std::size_t j, std::size_t got, std::size_t expected, bool more = false) const;
     static const std::vector<int>& holders(const DomainSlot& s) { return *s.holders; }
     double load_imbalance(const World& world, const std::vector<WarmImpulse>* warm) const;
     std::int64_t ghost_mismatches(const World& world, std::string& detail) const;
@@ -134,13 +138,17 @@ private:
     std::vector<std::uint8_t> corr_named_;
     std::vector<std::vector<std::vector<std::uint32_t>>> corr_in_;  // colour -> neighbour -> locals
     std::vector<Bytes> corr_out_, corr_recv_;  // message buffers, kept for their capacity
+    std::vector<std::size_t> expect_;           // the posted receives' sizes
+    PendingExchange pending_;                   // the colour posted and not yet completed
+    bool posted_named_ = false;                 // its messages carry the ids
+    std::array<std::uint64_t, 8> colour_bytes_{};
     std::uint64_t id_hash_ = 0;                    // sum of mixed gids of every body
     bool partitioned_ = false;                     // initial_bodies partitioned the scene's cells
     long conflicts_ = 0;                           // ghosts received for bodies owned here
     long migrations_ = 0, repartitions_ = 0, steps_ = 0;
     CommStats setup_stats_;                        // what setup cost: the stats when the first step began
     std::int64_t edge_cut_ = 0;
-    double partition_imbalance_ = 1.0, imbalance_ = 1.0;
+    double partition_imbalance_ = 1.0, partition_colour_imbalance_ = 1.0, imbalance_ = 1.0;
 };
 
 }  // namespace parode::mpi

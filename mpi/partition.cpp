@@ -12,19 +12,54 @@
 namespace parode::mpi {
 namespace {
 
+// Vertex weights, one row of kConstraints per cell: the cell's work in the
+// slot of its colour (the solver waits for the slowest rank after every
+// colour, so each colour's work is balanced on its own), then its bodies
+// (collision, forces and integration, balanced once a step).
+constexpr int kColours = 8;
+constexpr int kConstraints = kColours + 1;
+// How far a colour's work may exceed its mean on one part.
+constexpr double kColourTolerance = 1.06;
+
 struct Graph {
     std::vector<idx_t> xadj{0}, adjncy, vwgt, adjwgt;
+    idx_t ncon = kConstraints;
 };
 
-Graph build_graph(const std::vector<CellLoad>& cells) {
+// A constraint no cell weighs (a colour without cells) cannot be balanced:
+// METIS refuses it. Its column goes.
+void drop_empty_constraints(Graph& g) {
+    const std::size_t n = g.vwgt.size() / kConstraints;
+    std::vector<char> keep(kConstraints, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+        for (int k = 0; k < kConstraints; ++k) keep[static_cast<std::size_t>(k)] |= g.vwgt[i * kConstraints + static_cast<std::size_t>(k)] > 0;
+    }
+    std::vector<idx_t> w;
+    w.reserve(g.vwgt.size());
+    for (std::size_t i = 0; i < n; ++i) {
+        for (int k = 0; k < kConstraints; ++k) {
+            if (keep[static_cast<std::size_t>(k)]) w.push_back(g.vwgt[i * kConstraints + static_cast<std::size_t>(k)]);
+        }
+    }
+    g.ncon = static_cast<idx_t>(std::count(keep.begin(), keep.end(), 1));
+    g.vwgt.swap(w);
+}
+
+Graph build_graph(const std::vector<CellLoad>& cells, Balance balance) {
     Graph g;
+    const bool colours = balance == Balance::Colours;
     auto index = [&cells](std::uint64_t key) {
         const auto it = std::lower_bound(cells.begin(), cells.end(), key,
                                          [](const CellLoad& c, std::uint64_t k) { return c.key < k; });
         return it != cells.end() && it->key == key ? static_cast<long>(it - cells.begin()) : -1L;
     };
     for (const CellLoad& c : cells) {
-        g.vwgt.push_back(static_cast<idx_t>(std::max<std::int64_t>(1, c.work)));
+        for (int k = 0; k < kConstraints; ++k) {
+            const bool own = colours ? k == CellSpace::colour(c.key) : k == 0;  // Total: one column of work
+            g.vwgt.push_back(static_cast<idx_t>(k == kColours ? std::max<std::int64_t>(1, c.bodies)
+                                                : own         ? std::max<std::int64_t>(1, c.work)
+                                                              : 0));
+        }
         for (int x = -1; x <= 1; ++x) {
             for (int y = -1; y <= 1; ++y) {
                 for (int z = -1; z <= 1; ++z) {
@@ -38,6 +73,14 @@ Graph build_graph(const std::vector<CellLoad>& cells) {
         }
         g.xadj.push_back(static_cast<idx_t>(g.adjncy.size()));
     }
+    if (!colours) {  // the work column alone
+        std::vector<idx_t> w;
+        for (std::size_t i = 0; i < g.vwgt.size(); i += kConstraints) w.push_back(g.vwgt[i]);
+        g.vwgt.swap(w);
+        g.ncon = 1;
+        return g;
+    }
+    drop_empty_constraints(g);
     return g;
 }
 
@@ -49,14 +92,16 @@ std::vector<int> block_parts(std::size_t n, int parts) {
 }
 
 std::vector<int> metis_parts(Graph& g, int parts, idx_t& cut) {
-    idx_t n = static_cast<idx_t>(g.vwgt.size()), ncon = 1, np = parts;
+    idx_t n = static_cast<idx_t>(g.xadj.size() - 1), ncon = g.ncon, np = parts;
     idx_t options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(options);
     options[METIS_OPTION_SEED] = 1;
     options[METIS_OPTION_NUMBERING] = 0;
     std::vector<idx_t> part(static_cast<std::size_t>(n));
+    std::vector<real_t> ub(static_cast<std::size_t>(ncon), static_cast<real_t>(1.03));
+    if (ncon > 1) std::fill(ub.begin(), ub.end() - 1, static_cast<real_t>(kColourTolerance));
     const int rc = METIS_PartGraphKway(&n, &ncon, g.xadj.data(), g.adjncy.data(), g.vwgt.data(), nullptr,
-                                       g.adjwgt.data(), &np, nullptr, nullptr, options, &cut, part.data());
+                                       g.adjwgt.data(), &np, nullptr, ub.data(), options, &cut, part.data());
     if (rc != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed (code " + std::to_string(rc) + ")");
     return std::vector<int>(part.begin(), part.end());
 }
@@ -77,19 +122,29 @@ std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells) {
     return out;
 }
 
-Partition partition_cells(const std::vector<CellLoad>& cells, int parts) {
+Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance) {
     Partition p;
     for (const CellLoad& c : cells) p.keys.push_back(c.key);
-    Graph g = build_graph(cells);
+    Graph g = build_graph(cells, balance);
     idx_t cut = 0;
     p.owner = parts <= 1 || cells.size() < 4 * static_cast<std::size_t>(parts) ? block_parts(cells.size(), parts)
                                                                                : metis_parts(g, parts, cut);
-    std::vector<std::int64_t> work(static_cast<std::size_t>(std::max(parts, 1)), 0);
+    const std::size_t np = static_cast<std::size_t>(std::max(parts, 1));
+    std::vector<std::int64_t> work(np, 0), by_colour(np * kColours, 0);
     std::int64_t total = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
-        work[static_cast<std::size_t>(p.owner[i])] += cells[i].work;
+        const auto part = static_cast<std::size_t>(p.owner[i]);
+        work[part] += cells[i].work;
+        by_colour[part * kColours + static_cast<std::size_t>(CellSpace::colour(cells[i].key))] += cells[i].work;
         total += cells[i].work;
     }
+    double slowest = 0;
+    for (int c = 0; c < kColours; ++c) {
+        std::int64_t most = 0;
+        for (std::size_t r = 0; r < np; ++r) most = std::max(most, by_colour[r * kColours + static_cast<std::size_t>(c)]);
+        slowest += static_cast<double>(most);
+    }
+    p.colour_imbalance = total > 0 ? slowest * static_cast<double>(np) / static_cast<double>(total) : 1.0;
     p.edge_cut = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         for (idx_t e = g.xadj[i]; e < g.xadj[i + 1]; ++e) {

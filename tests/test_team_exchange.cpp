@@ -25,8 +25,10 @@ namespace {
 
 class SlowExchange : public CorrectionExchange {
 public:
+    bool shared(std::uint32_t /*local*/) const override { return false; }
     void plan(const std::vector<std::vector<std::uint32_t>>& /*touched*/) override {}
-    void exchange(int /*colour*/, const CorrectionView& /*fc*/) override {
+    void post(int /*colour*/, const CorrectionView& /*fc*/) override {}
+    void complete(int /*colour*/, const CorrectionView& /*fc*/) override {
         if (calls == fail_at) throw std::runtime_error("stand-in exchange failed");
         std::this_thread::sleep_for(std::chrono::milliseconds(2));
         ++calls;

@@ -57,16 +57,20 @@ double cost_quantile(const double* share, const double* seconds, std::size_t t, 
 
 }  // namespace
 
-// Per colour, one cell range per thread holding about equal shares of the
-// time measured on the previous call (of contacts, without one).
+// Per phase (a colour's boundary cells, then its interior cells), one cell
+// range per thread holding about equal shares of the time measured on the
+// previous call (of contacts, without one).
 void ParallelContactSolver::split(int team) {
     const SweepLayout& L = layout();
     const std::size_t t = static_cast<std::size_t>(team), stride = t + 1;
-    const bool measured = share_.size() == kColours * stride;
-    ranges_.assign(kColours * stride, 0);
-    std::vector<double> share(kColours * stride, 0.0);
-    for (int c = 0; c < kColours; ++c) {
-        const std::size_t b = L.colour_begin(c), e = L.colour_end(c), at = static_cast<std::size_t>(c) * stride;
+    const bool measured = share_.size() == kPhases * stride;
+    ranges_.assign(kPhases * stride, 0);
+    std::vector<double> share(kPhases * stride, 0.0);
+    for (int ph = 0; ph < kPhases; ++ph) {
+        const int c = ph / 2;
+        const std::size_t b = ph % 2 ? L.boundary_end(c) : L.colour_begin(c);
+        const std::size_t e = ph % 2 ? L.colour_end(c) : L.boundary_end(c);
+        const std::size_t at = static_cast<std::size_t>(ph) * stride;
         const std::size_t p0 = L.cell_begin(b), p1 = L.cell_begin(e);
         std::size_t* r = ranges_.data() + at;
         double total = 0;
@@ -90,7 +94,7 @@ void ParallelContactSolver::split(int team) {
         }
     }
     share_.swap(share);
-    seconds_.assign(kColours * stride, 0.0);
+    seconds_.assign(kPhases * stride, 0.0);
 }
 
 void ParallelContactSolver::sweep(int passes, bool warm) {
@@ -106,8 +110,11 @@ void ParallelContactSolver::sweep(int passes, bool warm) {
     team.verdict(sweep_threaded(passes, warm, t));
 }
 
-// The threads relax their ranges colour by colour, a barrier after each
-// colour. Steps (colours of all passes) are numbered; a thread that waited too
+// The threads relax their ranges colour by colour: on a distributed run the
+// colour's boundary cells, a barrier, the master posts the corrections while
+// every thread goes on with the interior cells, a barrier, the master
+// completes the exchange, a barrier; on one process the colour's cells and a
+// barrier. Steps (colours of all passes) are numbered; a thread that waited too
 // long at the barrier after step k (gave_up) sets `alone_at` to k + 2 (the
 // least such value wins). After the barrier of step k - 1 every thread sees every value
 // written before it, and values written after it are at least k + 1, so all
@@ -134,29 +141,11 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
                 }
                 break;
             }
-            const std::size_t* r = ranges_.data() + static_cast<std::size_t>(c) * stride;
-            const double t0 = now_seconds();
-            if (warm) warm_cells(r[me], r[me + 1]);
-            else relax_cells(r[me], r[me + 1]);
-            const double t1 = now_seconds();
-            seconds_[static_cast<std::size_t>(c) * stride + me] += t1 - t0;
-#pragma omp barrier
-            // The wait for this process's own threads; the exchange's wait is
-            // the other processes' pace, not a core taken from this one.
-            const double wait = now_seconds() - t1;
-            if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
-#pragma omp master
-                try {
-                    exchange_after(c);
-                } catch (...) {  // an exception may not leave a parallel region
-                    failed = std::current_exception();
-                }
-#pragma omp barrier
-                if (failed) break;
-            }
-            total_work += t1 - t0;
-            total_wait += wait;
-            if (gave_up(t1 - t0, wait, total_work, total_wait)) {
+            const PhaseTimes pt = colour_threaded(c, warm, me, stride, failed);
+            if (failed) break;
+            total_work += pt.work;
+            total_wait += pt.wait;
+            if (gave_up(pt.work, pt.wait, total_work, total_wait)) {
                 long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
                 while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
                 }
@@ -167,15 +156,62 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
     return alone_at.load() < steps;
 }
 
+// Thread `me`'s part of colour c (inside the sweep's parallel region): its
+// seconds of work and of waiting for the other threads. The exchange's wait
+// is the other processes' pace, not a core taken from this one: not counted.
+ParallelContactSolver::PhaseTimes ParallelContactSolver::colour_threaded(int c, bool warm, std::size_t me,
+                                                                         std::size_t stride, std::exception_ptr& failed) {
+    const auto cells = [&](int ph) {
+        const std::size_t* r = ranges_.data() + static_cast<std::size_t>(ph) * stride;
+        const double t0 = now_seconds();
+        if (warm) warm_cells(r[me], r[me + 1]);
+        else relax_cells(r[me], r[me + 1]);
+        const double t1 = now_seconds();
+        seconds_[static_cast<std::size_t>(ph) * stride + me] += t1 - t0;
+        return t1 - t0;
+    };
+    const auto cu = static_cast<std::size_t>(c);
+    PhaseTimes pt;
+    const double start = now_seconds();
+    if (exchanging()) {  // one thread talks to the other processes (MPI_THREAD_FUNNELED)
+        pt.work += cells(2 * c);
+        double t = now_seconds();
+#pragma omp barrier
+        pt.wait += now_seconds() - t;
+#pragma omp master
+        try {
+            post_after_boundary(c);
+        } catch (...) {  // an exception may not leave a parallel region
+            failed = std::current_exception();
+        }
+    }
+    pt.work += cells(2 * c + 1);  // the other threads start at once; the master after posting
+    double t = now_seconds();
+#pragma omp barrier
+    const double done = now_seconds();
+    pt.wait += done - t;
+#pragma omp master
+    {
+        colour_times_mut().compute[cu] += done - start;
+        if (exchanging() && !failed) {
+            try {
+                complete_after_interior(c);
+            } catch (...) {
+                failed = std::current_exception();
+            }
+            colour_times_mut().wait[cu] += now_seconds() - done;
+        }
+    }
+    if (exchanging()) {
+#pragma omp barrier
+    }
+    return pt;
+}
+
 // Steps [from, steps) on this thread: the colours of the pass under way, then
 // whole passes.
 void ParallelContactSolver::finish_alone(long from, long steps, bool warm) {
-    for (long k = from; k < steps; ++k) {
-        const int c = static_cast<int>(k % kColours);
-        if (warm) warm_cells(layout().colour_begin(c), layout().colour_end(c));
-        else relax_cells(layout().colour_begin(c), layout().colour_end(c));
-        exchange_after(c);
-    }
+    for (long k = from; k < steps; ++k) colour_alone(static_cast<int>(k % kColours), warm);
 }
 
 }  // namespace parode::omp

@@ -20,6 +20,7 @@
 // timing costs three clock reads a colour,
 // and a shared core still costs waits as long as the work before the verdict.
 #pragma once
+#include <exception>
 #include <vector>
 
 #include "solve/contact_solver.hpp"
@@ -33,14 +34,20 @@ public:
     void step(World& world, const ContactBuffer& contacts) override;
 
 private:
+    // Phases: colour c's boundary cells (2c), then its interior cells (2c + 1).
+    static constexpr int kPhases = 2 * kColours;
+    struct PhaseTimes {
+        double work = 0, wait = 0;
+    };
     void sweep(int passes, bool warm) override;
     void split(int team);
     bool sweep_threaded(int passes, bool warm, int team);
+    PhaseTimes colour_threaded(int c, bool warm, std::size_t me, std::size_t stride, std::exception_ptr& failed);
     void finish_alone(long from, long steps, bool warm);
 
-    std::vector<std::size_t> ranges_;  // colour-major: first cell of each thread's range, + end
-    // Colour-major, per thread: where its range began and ended as a share of
-    // the colour's contacts, and the seconds it worked there (this call).
+    std::vector<std::size_t> ranges_;  // phase-major: first cell of each thread's range, + end
+    // Phase-major, per thread: where its range began and ended as a share of
+    // the phase's contacts, and the seconds it worked there (this call).
     std::vector<double> share_, seconds_;
 };
 

@@ -82,6 +82,26 @@ double solver_exchange_seconds(const Pipeline& p) {
     return s ? s->seconds("exchange") : 0;
 }
 
+// Per colour of the contact solver: the seconds its cells took and the
+// seconds waiting for the other processes' corrections, {min, avg, max} over
+// ranks; and the colours' imbalance: what a run pays when every colour waits
+// for its slowest rank (the sum over colours of the largest compute), over
+// what it would pay if each rank had its mean (the sum of the means).
+void colour_json(const Collectives& domain, const ColourTimes& t, nlohmann::json& parallel) {
+    nlohmann::json colours = nlohmann::json::array();
+    double slowest = 0, mean = 0, wait = 0;
+    for (std::size_t c = 0; c < t.compute.size(); ++c) {
+        const nlohmann::json compute = spread(domain, t.compute[c]);
+        colours.push_back({{"compute_s", compute}, {"wait_s", spread(domain, t.wait[c])}});
+        slowest += compute["max"].get<double>();
+        mean += compute["avg"].get<double>();
+        wait += t.wait[c];
+    }
+    parallel["colours"] = colours;
+    parallel["colour_imbalance"] = mean > 0 ? slowest / mean : 1.0;
+    parallel["wait_seconds"] = spread(domain, wait);
+}
+
 // Substages reported for a stage whose backend times them, in this order.
 const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
     static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
@@ -193,6 +213,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["guard"] = p.guard().describe();
     r["parallel"] = p.decomposition().report();
     if (domain.distributed()) r["parallel"]["solver_exchange_seconds"] = spread(domain, solver_exchange_seconds(p));
+    if (const ColourTimes* t = p.solver().colour_times()) colour_json(domain, *t, r["parallel"]);
     const double rss = peak_rss_bytes();
     ExactSum total_rss;
     total_rss.add(rss);

@@ -196,6 +196,12 @@ struct RunSpec {
 struct ParallelSpec {
     double rebalance_threshold = 1.25;  // repartition when max load / mean load exceeds this
     int rebalance_every = 10;           // steps between load measurements
+    // The partition balances each colour's work (the solver waits for the
+    // slowest rank after every colour), or only each rank's total.
+    bool balance_colours = true;
+    // The solver relaxes a colour's interior cells while the corrections of
+    // its boundary cells travel; off: every cell before the exchange.
+    bool overlap = true;
 };
 
 struct Scene {

@@ -329,6 +329,8 @@ void read_parallel(const Node& root, ParallelSpec& p) {
     t.expect_keys(table_keys("parallel"));
     p.rebalance_threshold = t.number("rebalance_threshold", p.rebalance_threshold, 1.0);
     p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
+    p.balance_colours = t.choice("balance", "colours", {"colours", "total"}) == "colours";
+    p.overlap = t.boolean("overlap", p.overlap);
 }
 
 Scene build_scene(toml::value& data, const std::string& name, const std::vector<std::string>& overrides,

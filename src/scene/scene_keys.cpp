@@ -282,7 +282,10 @@ std::vector<SceneKey> build() {
     add(out, "parallel",
         {num("rebalance_threshold").in(1, kInf).def(par.rebalance_threshold)
              .means("repartition when the busiest rank's load passes this x the mean"),
-         integer("rebalance_every").in(1, 1e6).def(par.rebalance_every).means("steps between load measurements")});
+         integer("rebalance_every").in(1, 1e6).def(par.rebalance_every).means("steps between load measurements"),
+         K("balance", "one of \"colours\", \"total\"").def("\"colours\"")
+             .means("what the partition balances: each colour's work and the bodies, or each rank's total"),
+         boolean("overlap", true).means("relax a colour's interior cells while its boundary corrections travel")});
     add(out, "run",
         {str("collide").def("unset: \"grid\"").means("collision backend (checked when the run starts)"),
          str("solver").def("unset: \"parallel\"").means("solver (checked when the run starts)"),

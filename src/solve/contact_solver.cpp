@@ -296,6 +296,14 @@ void ContactSolver::build_phase() {
     li.gid = world_->gids().data();
     li.contacts = nc;
     li.owner = owner_.data();
+    if (exchange_) {  // boundary cells first in each colour (sweep_layout.hpp)
+        shared_.resize(nb);
+        for_ranges(loops(), nb, kGrain, [&](std::size_t i0, std::size_t i1) {
+            for (std::size_t i = i0; i < i1; ++i) shared_[i] = exchange_->shared(static_cast<std::uint32_t>(i)) ? 1 : 0;
+        });
+        li.other = other_.data();
+        li.shared = shared_.data();
+    }
     layout_.build(li, loops());
     fill_body_rows();
     rows_.resize(nc);
@@ -383,13 +391,29 @@ void ContactSolver::warm_cells(std::size_t t0, std::size_t t1) {
     }
 }
 
+void ContactSolver::colour_alone(int c, bool warm) {
+    const auto cells = [&](std::size_t t0, std::size_t t1) {
+        if (warm) warm_cells(t0, t1);
+        else relax_cells(t0, t1);
+    };
+    const double t0 = now_seconds();
+    if (!exchange_) {
+        cells(layout_.colour_begin(c), layout_.colour_end(c));
+        colour_times_.compute[static_cast<std::size_t>(c)] += now_seconds() - t0;
+        return;
+    }
+    cells(layout_.colour_begin(c), layout_.boundary_end(c));
+    post_after_boundary(c);
+    cells(layout_.boundary_end(c), layout_.colour_end(c));
+    const double t1 = now_seconds();
+    complete_after_interior(c);
+    colour_times_.compute[static_cast<std::size_t>(c)] += t1 - t0;
+    colour_times_.wait[static_cast<std::size_t>(c)] += now_seconds() - t1;
+}
+
 void ContactSolver::sweep(int passes, bool warm) {
     for (int it = 0; it < passes; ++it) {
-        for (int c = 0; c < kColours; ++c) {
-            if (warm) warm_cells(layout_.colour_begin(c), layout_.colour_end(c));
-            else relax_cells(layout_.colour_begin(c), layout_.colour_end(c));
-            exchange_after(c);
-        }
+        for (int c = 0; c < kColours; ++c) colour_alone(c, warm);
     }
 }
 

@@ -64,15 +64,29 @@ private:
 // copies of them, and theirs come in. Cells of one colour touch disjoint
 // bodies, so every body's corrections are summed in the same order as on one
 // process.
+// The exchange comes in two halves so that work runs while the messages
+// travel: post() once the colour's boundary cells are relaxed (the only ones
+// that touch bodies other processes hold), complete() after its interior
+// cells, which touch no such body.
 class CorrectionExchange {
 public:
     virtual ~CorrectionExchange() = default;
+    // Whether another process holds a copy of local body `local` (valid after
+    // the step's exchange of states).
+    virtual bool shared(std::uint32_t local) const = 0;
     // Once a step, before the warm start: the local bodies that this
     // process's cells of each colour touch (each listed once per colour).
     virtual void plan(const std::vector<std::vector<std::uint32_t>>& touched) = 0;
-    // After colour `c`: send this process's corrections, take the others'.
-    virtual void exchange(int colour, const CorrectionView& fc) = 0;
+    // After colour `c`'s boundary cells: send this process's corrections.
+    virtual void post(int colour, const CorrectionView& fc) = 0;
+    // After its interior cells: take the other processes' corrections.
+    virtual void complete(int colour, const CorrectionView& fc) = 0;
+    void exchange(int colour, const CorrectionView& fc) {
+        post(colour, fc);
+        complete(colour, fc);
+    }
 };
+
 
 class ContactSolver : public SolverBackend {
 public:
@@ -86,6 +100,7 @@ public:
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
     const Substages* substages() const override { return &times_; }
+    const ColourTimes* colour_times() const override { return &colour_times_; }
     bool wrote_finite_state() const override { return finite_; }
     double max_speed_written() const override { return max_speed_; }
 
@@ -108,12 +123,20 @@ protected:
     const SweepLayout& layout() const { return layout_; }
     int iterations() const { return scene_.solver.iterations; }
     std::size_t contact_count() const { return contacts_ ? contacts_->size() : 0; }
-    // After colour c of a sweep (serially, between the colours).
-    void exchange_after(int c) {
-        if (!exchange_) return;
+    // The halves of colour c's exchange (serially: one thread talks).
+    void post_after_boundary(int c) {
         SubstageTimer t(times_, "exchange");  // within warm_start and sweeps: the time spent talking
-        exchange_->exchange(c, CorrectionView(hot_.data(), layout_.slot().data()));
+        exchange_->post(c, CorrectionView(hot_.data(), layout_.slot().data()));
     }
+    void complete_after_interior(int c) {
+        SubstageTimer t(times_, "exchange");
+        exchange_->complete(c, CorrectionView(hot_.data(), layout_.slot().data()));
+    }
+    // Colour c of a sweep on this thread alone: boundary cells, post,
+    // interior cells, complete (without an exchange: the cells in one go);
+    // its compute and wait seconds added to colour_times_.
+    void colour_alone(int c, bool warm);
+    ColourTimes& colour_times_mut() { return colour_times_; }
     bool exchanging() const { return exchange_ != nullptr; }
     Substages& times() { return times_; }
     Execution& execution() const { return exec_; }
@@ -166,7 +189,9 @@ private:
     CorrectionExchange* exchange_ = nullptr;
     std::vector<std::vector<std::uint32_t>> touched_;  // per colour, for the exchange
     std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
+    std::vector<std::uint8_t> shared_;                 // per body: another process holds a copy
     Substages times_;
+    ColourTimes colour_times_;
     bool finite_ = false;  // every owned body's new state was finite
     double max_speed_ = -1.0;  // the largest linear speed integrate wrote
 };

@@ -9,6 +9,7 @@
 // Trade-off: the project solver handles contact-only scenes (no scene joints,
 // no auto-disable); other scenes stay on ODE's stepper and the report says why.
 #pragma once
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,6 +25,14 @@ namespace parode {
 
 struct WarmImpulse;
 class CorrectionExchange;
+
+// Per colour of parode's contact solver, summed over a run's steps: the
+// seconds its cells took to relax (the boundary cells, the post, the
+// interior cells: the colour's own work on this process) and the seconds
+// spent completing its exchange (waiting for the other processes).
+struct ColourTimes {
+    std::array<double, 8> compute{}, wait{};
+};
 
 class SolverBackend {
 public:
@@ -41,6 +50,9 @@ public:
     virtual void set_exchange(CorrectionExchange* /*exchange*/) {}
     // Seconds spent in the backend's substages so far, or null.
     virtual const Substages* substages() const { return nullptr; }
+    // Per colour of parode's contact solver, its compute and wait seconds so
+    // far (contact_solver.hpp), or null.
+    virtual const ColourTimes* colour_times() const { return nullptr; }
     // True when the last step wrote every owned body's state and found it
     // finite as it did (the guard then skips its own scan).
     virtual bool wrote_finite_state() const { return false; }

@@ -162,33 +162,52 @@ void SweepLayout::find_runs(const LayoutInput& in) {
     });
 }
 
-// Cells with contacts, colour by colour, and their first positions.
-void SweepLayout::place_contacts() {
+// Whether cell t's contacts touch a body another process holds.
+bool SweepLayout::touches_shared(const LayoutInput& in, std::size_t t) const {
+    for (std::uint32_t s = cell_slot_[t]; s < cell_slot_[t + 1]; ++s) {
+        const std::uint32_t b = order_[s];
+        if (!run_count_[b]) continue;
+        if (in.shared[b]) return true;
+        for (std::uint32_t k = run_first_[b]; k < run_first_[b] + run_count_[b]; ++k) {
+            const std::uint32_t o = in.other[k];
+            if (o != ~0u && in.shared[o]) return true;
+        }
+    }
+    return false;
+}
+
+// Cells with contacts, colour by colour (boundary cells first), and their
+// first positions.
+void SweepLayout::place_contacts(const LayoutInput& in) {
     const LoopRunner& loops = *runner_;
     const std::size_t cells = cell_slot_.size() - 1, chunks = chunk_count(loops, cells, kGrain / 8);
+    const bool split = in.shared && in.other;
     std::vector<std::size_t> contacts(cells);
-    std::vector<std::size_t> per(chunks * kColours, 0), colour_first;
+    boundary_.resize(cells);
+    std::vector<std::size_t> per(chunks * kClasses, 0), class_first;
     // Each chunk counts into a local row and stores it once: the rows of
     // neighbouring chunks share a cache line.
     loops.run(chunks, cells, [&](std::size_t c) {
-        std::array<std::size_t, kColours> count{};
+        std::array<std::size_t, kClasses> count{};
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
             std::size_t k = 0;
             for (std::uint32_t s = cell_slot_[t]; s < cell_slot_[t + 1]; ++s) k += run_count_[order_[s]];
             contacts[t] = k;
-            if (k) ++count[static_cast<std::size_t>(colour_[t])];
+            boundary_[t] = split && k && touches_shared(in, t);
+            if (k) ++count[2 * static_cast<std::size_t>(colour_[t]) + (boundary_[t] ? 0 : 1)];
         }
-        std::copy(count.begin(), count.end(), per.begin() + static_cast<std::ptrdiff_t>(c * kColours));
+        std::copy(count.begin(), count.end(), per.begin() + static_cast<std::ptrdiff_t>(c * kClasses));
     });
-    outer_inner_offsets(chunks, kColours, per, colour_first);
-    for (int c = 0; c <= kColours; ++c) colour_start_[static_cast<std::size_t>(c)] = colour_first[static_cast<std::size_t>(c)];
-    const std::size_t tasks = colour_first[kColours];
+    outer_inner_offsets(chunks, kClasses, per, class_first);
+    std::copy_n(class_first.begin(), kClasses + 1, class_start_.begin());
+    const std::size_t tasks = class_first[kClasses];
     task_cell_.resize(tasks);
     loops.run(chunks, cells, [&](std::size_t c) {
-        std::array<std::size_t, kColours> next;
-        std::copy_n(per.begin() + static_cast<std::ptrdiff_t>(c * kColours), kColours, next.begin());
+        std::array<std::size_t, kClasses> next;
+        std::copy_n(per.begin() + static_cast<std::ptrdiff_t>(c * kClasses), kClasses, next.begin());
         for (std::size_t t = chunk_begin(cells, chunks, c); t < chunk_begin(cells, chunks, c + 1); ++t) {
-            if (contacts[t]) task_cell_[next[static_cast<std::size_t>(colour_[t])]++] = static_cast<std::uint32_t>(t);
+            const std::size_t cls = 2 * static_cast<std::size_t>(colour_[t]) + (boundary_[t] ? 0 : 1);
+            if (contacts[t]) task_cell_[next[cls]++] = static_cast<std::uint32_t>(t);
         }
     });
     pos_start_.resize(tasks + 1);
@@ -230,7 +249,7 @@ void SweepLayout::build(const LayoutInput& in, const LoopRunner& loops) {
         for (std::size_t t = t0; t < t1; ++t) colour_[t] = static_cast<std::uint8_t>(CellSpace::colour(in.cell[order_[cell_slot_[t]]]));
     });
     find_runs(in);
-    place_contacts();
+    place_contacts(in);
 }
 
 }  // namespace parode

@@ -9,6 +9,11 @@
 // cell, so a sweep reads its rows front to back; the layout maps each contact
 // to its position, so that a pass in canonical order reads its inputs front
 // to back too.
+// On a distributed run each colour lists first the cells that touch a body
+// another process also holds (boundary cells: their corrections are sent
+// after the colour), then the others (interior cells, relaxed while the
+// messages travel); cells of one colour touch disjoint bodies, so this order
+// changes no result.
 // The sort is a counting sort over the cells of the bodies' bounding box
 // (z-slabs in parallel), or a comparison sort when the box holds more than
 // 8 cells per body (bodies scattered far apart). Results never depend on the
@@ -31,6 +36,12 @@ struct LayoutInput {
     const std::uint32_t* gid = nullptr;   // per local body
     std::size_t contacts = 0;
     const std::uint32_t* owner = nullptr;  // per contact: local body of its lower id; equal owners adjacent
+    // A distributed run: per contact, the local body of its higher id (or
+    // ~0u), and per local body, whether another process holds a copy. A
+    // cell touching such a body is a boundary cell; each colour lists its
+    // boundary cells first. Null: no boundary cells.
+    const std::uint32_t* other = nullptr;
+    const std::uint8_t* shared = nullptr;
 };
 
 class SweepLayout {
@@ -41,10 +52,12 @@ public:
 
     const std::vector<std::uint32_t>& order() const { return order_; }  // slot -> local body
     const std::vector<std::uint32_t>& slot() const { return slot_; }    // local body -> slot
-    // Cells (with contacts) of colour c: [colour_begin(c), colour_end(c)).
-    std::size_t colour_begin(int c) const { return colour_start_[static_cast<std::size_t>(c)]; }
-    std::size_t colour_end(int c) const { return colour_start_[static_cast<std::size_t>(c) + 1]; }
-    std::size_t cells() const { return colour_start_[kColours]; }
+    // Cells (with contacts) of colour c: [colour_begin(c), colour_end(c)),
+    // its boundary cells [colour_begin(c), boundary_end(c)) first.
+    std::size_t colour_begin(int c) const { return class_start_[2 * static_cast<std::size_t>(c)]; }
+    std::size_t boundary_end(int c) const { return class_start_[2 * static_cast<std::size_t>(c) + 1]; }
+    std::size_t colour_end(int c) const { return class_start_[2 * static_cast<std::size_t>(c) + 2]; }
+    std::size_t cells() const { return class_start_[2 * kColours]; }
     // Positions of cell t: [cell_begin(t), cell_begin(t + 1)).
     std::size_t cell_begin(std::size_t t) const { return pos_start_[t]; }
     // The position of contact k (canonical index).
@@ -60,7 +73,8 @@ private:
     void list_cells(const LayoutInput& in);
     void order_within_cells(const LayoutInput& in);
     void find_runs(const LayoutInput& in);
-    void place_contacts();
+    bool touches_shared(const LayoutInput& in, std::size_t t) const;
+    void place_contacts(const LayoutInput& in);
 
     const LoopRunner* runner_ = nullptr;  // build's
     std::vector<std::uint32_t> order_, slot_;
@@ -73,7 +87,10 @@ private:
     std::vector<std::uint8_t> colour_;       // per cell of bodies
     std::vector<std::uint32_t> task_cell_;   // per listed cell (with contacts): its cell of bodies
     std::vector<std::size_t> pos_start_;     // per listed cell: first position, + total
-    std::array<std::size_t, kColours + 1> colour_start_{};
+    // Per colour c: class 2c its boundary cells, 2c + 1 its interior ones.
+    static constexpr int kClasses = 2 * kColours;
+    std::array<std::size_t, kClasses + 1> class_start_{};
+    std::vector<std::uint8_t> boundary_;     // per cell of bodies: touches a shared body
     std::vector<std::uint32_t> position_;    // per contact
 };
 
