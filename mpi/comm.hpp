@@ -11,6 +11,7 @@
 // keep the rest of the layer free of MPI types and easy to test.
 #pragma once
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -21,6 +22,21 @@
 namespace parode::mpi {
 
 using Bytes = std::vector<char>;
+
+// A value's bytes appended to `b`; the value at `at` in `b`, `at` moved past it.
+template <class T>
+void put(Bytes& b, const T& v) {
+    const std::size_t at = b.size();
+    b.resize(at + sizeof(T));
+    std::memcpy(b.data() + at, &v, sizeof(T));
+}
+template <class T>
+T take(const Bytes& b, std::size_t& at) {
+    T v;
+    std::memcpy(&v, b.data() + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+}
 
 // True when this process was started by an MPI launcher (mpirun, mpiexec,
 // srun): then main() initialises MPI, otherwise it never touches it.

@@ -9,22 +9,67 @@
 // every message.
 #include "mpi_domain.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 
 namespace parode::mpi {
 
+// A new token for mark_: the marks of earlier passes lapse.
+std::uint32_t MpiDomain::next_mark() {
+    mark_.resize(world_->body_count(), 0);
+    if (++mark_token_ == 0) {
+        std::fill(mark_.begin(), mark_.end(), 0);
+        mark_token_ = 1;
+    }
+    return mark_token_;
+}
+
+// Interest: each rank tells each neighbour which of the bodies they both
+// hold it touches this step (any colour), and learns theirs. A neighbour
+// needs a body's corrections only if it touches the body or owns it (to
+// integrate it); a ghost it never touches keeps its state until the next
+// exchange of states, so its corrections are not sent. One message each
+// way a step.
+void MpiDomain::exchange_interest(const std::vector<std::vector<std::uint32_t>>& touched) {
+    std::vector<Bytes> out(nbrs_.size());
+    const std::uint32_t once = next_mark();
+    for (const auto& list : touched) {
+        for (std::uint32_t b : list) {
+            if (mark_[b] == once) continue;
+            mark_[b] = once;
+            for (int h : holders(world_->slot(b))) {
+                if (h != rank()) put(out[static_cast<std::size_t>(nbr_index_[static_cast<std::size_t>(h)])], world_->gid(b));
+            }
+        }
+    }
+    comm_.exchange(nbrs_, out, nbrs_, interest_in_, kTagInterest);
+}
+
 void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
+    exchange_interest(touched);
     corr_.resize(touched.size());
     corr_in_.resize(touched.size());
     corr_named_.assign(touched.size(), 0);
     for (std::size_t c = 0; c < touched.size(); ++c) {
         corr_[c].assign(nbrs_.size(), {});
         corr_in_[c].assign(nbrs_.size(), {});
-        for (std::uint32_t b : touched[c]) {
-            for (int h : holders(world_->slot(b))) {
-                if (h != rank()) corr_[c][static_cast<std::size_t>(nbr_index_[static_cast<std::size_t>(h)])].push_back(b);
+    }
+    for (std::size_t j = 0; j < nbrs_.size(); ++j) {
+        const std::uint32_t wants = next_mark();
+        const Bytes& in = interest_in_[j];
+        for (std::size_t at = 0; at + sizeof(std::uint32_t) <= in.size();) {
+            const std::uint32_t local = world_->local_of(take<std::uint32_t>(in, at));
+            if (local != IdMap::kNone) mark_[local] = wants;
+        }
+        const int h = nbrs_[j];
+        for (std::size_t c = 0; c < touched.size(); ++c) {
+            for (std::uint32_t b : touched[c]) {
+                const DomainSlot& s = world_->slot(b);
+                if (mark_[b] != wants && s.owner != h) continue;
+                const std::vector<int>& hs = holders(s);
+                if (std::find(hs.begin(), hs.end(), h) != hs.end()) corr_[c][j].push_back(b);
             }
         }
     }

@@ -16,21 +16,6 @@
 namespace parode::mpi {
 namespace {
 
-template <class T>
-void put(Bytes& b, const T& v) {
-    const std::size_t at = b.size();
-    b.resize(at + sizeof(T));
-    std::memcpy(b.data() + at, &v, sizeof(T));
-}
-
-template <class T>
-T take(const Bytes& b, std::size_t& at) {
-    T v;
-    std::memcpy(&v, b.data() + at, sizeof(T));
-    at += sizeof(T);
-    return v;
-}
-
 Vec3 position(const World& w, std::size_t i) {
     const dReal* x = dBodyGetPosition(w.body(i));
     return {x[0], x[1], x[2]};

@@ -82,6 +82,9 @@ public:
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
     void post(int colour, const CorrectionView& fc) override;
     void complete(int colour, const CorrectionView& fc) override;
+    // The next message of every colour names its bodies again, as after
+    // plan() (for tests: a process that disagrees with its neighbours).
+    void restart_names() { corr_named_.assign(corr_named_.size(), 0); }
     // Bytes this process sent in the solver's exchange after each colour.
     const std::array<std::uint64_t, 8>& colour_bytes() const { return colour_bytes_; }
 
@@ -92,7 +95,9 @@ public:
 
 private:
     // Message tags, one per kind of exchange.
-    enum Tag { kTagMigrate = 11, kTagGhost = 12, kTagForce = 13, kTagCorrection = 14, kTagCheck = 15 };
+    enum Tag { kTagMigrate = 11, kTagGhost = 12, kTagForce = 13, kTagCorrection = 14, kTagCheck = 15, kTagInterest = 16 };
+    void exchange_interest(const std::vector<std::vector<std::uint32_t>>& touched);
+    std::uint32_t next_mark();
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
     void partition(std::vector<CellLoad> mine);
     void move_bodies(World& world, std::vector<WarmImpulse>* warm);
@@ -139,6 +144,9 @@ private:
     std::vector<std::vector<std::vector<std::uint32_t>>> corr_in_;  // colour -> neighbour -> locals
     std::vector<Bytes> corr_out_, corr_recv_;  // message buffers, kept for their capacity
     std::vector<std::size_t> expect_;           // the posted receives' sizes
+    std::vector<Bytes> interest_in_;            // per neighbour: the gids it touches this step
+    std::vector<std::uint32_t> mark_;           // per local body: the token of the pass that marked it
+    std::uint32_t mark_token_ = 0;
     PendingExchange pending_;                   // the colour posted and not yet completed
     bool posted_named_ = false;                 // its messages carry the ids
     std::array<std::uint64_t, 8> colour_bytes_{};

@@ -161,8 +161,8 @@ TEST(MpiDomain, InvariantCheckFailsOnEveryProcess) {
 
 // The solve's correction exchange between the two processes: each receives
 // the other's corrections of the bodies both hold; and when the two disagree
-// about which message of a colour carries the ids (here one process plans
-// the step again, so it names its bodies a second time), each stops with an
+// about which message of a colour carries the ids (here one process forgets
+// it named them, so it names its bodies a second time), each stops with an
 // error that names both ranks and the sizes, instead of reading past a
 // message or applying the wrong bytes.
 TEST(MpiDomain, CorrectionMessagesOfTheWrongSizeStopBothProcesses) {
@@ -187,7 +187,7 @@ TEST(MpiDomain, CorrectionMessagesOfTheWrongSizeStopBothProcesses) {
     }
     g_comm->sum(&shared, 1);
     ASSERT_GT(shared, 0) << "the processes share bodies and exchanged their corrections";
-    if (d.rank() == 1) d.plan(touched);  // rank 1 names its bodies again; rank 0 does not expect it
+    if (d.rank() == 1) d.restart_names();  // rank 1 names its bodies again; rank 0 does not expect it
     try {
         d.exchange(0, fc);
         FAIL() << "rank " << d.rank() << ": a message of the wrong size was read";

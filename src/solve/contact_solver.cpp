@@ -417,8 +417,9 @@ void ContactSolver::sweep(int passes, bool warm) {
     }
 }
 
-// The bodies each colour's cells touch, each once per colour (a body is
-// touched by at most one cell of a colour).
+// The bodies each colour's boundary cells touch, each once per colour (a
+// body is touched by at most one cell of a colour); interior cells touch no
+// body another process holds, so they are not listed.
 void ContactSolver::plan_exchange() {
     touched_.resize(kColours);
     stamp_.assign(hot_.size(), 0);
@@ -432,7 +433,7 @@ void ContactSolver::plan_exchange() {
             stamp_[static_cast<std::size_t>(s)] = mark;
             list.push_back(order[static_cast<std::size_t>(s)]);
         };
-        for (std::size_t p = layout_.cell_begin(layout_.colour_begin(c)); p < layout_.cell_begin(layout_.colour_end(c)); ++p) {
+        for (std::size_t p = layout_.cell_begin(layout_.colour_begin(c)); p < layout_.cell_begin(layout_.boundary_end(c)); ++p) {
             const SphereRow& K = rows_[p];
             if (K.b1 >= 0) {
                 add(K.b1);
