@@ -62,7 +62,7 @@ void MpiDomain::check_scene(const Scene& sc, const std::string& /*collide*/, con
     throw SceneError(v.reason);
 }
 
-std::vector<std::uint32_t> MpiDomain::restart_bodies(const Scene& scene) const {
+std::vector<std::uint32_t> MpiDomain::block(const Scene& scene) const {
     const std::uint64_t n = scene.body_count(), r = static_cast<std::uint64_t>(rank()), p = static_cast<std::uint64_t>(ranks());
     std::vector<std::uint32_t> ids;
     for (std::uint64_t id = n * r / p; id < n * (r + 1) / p; ++id) ids.push_back(static_cast<std::uint32_t>(id));
@@ -74,13 +74,13 @@ std::vector<std::uint32_t> MpiDomain::restart_bodies(const Scene& scene) const {
 // to the owner of its cell (4 bytes an id, instead of a body's state and
 // impulses after it was built: at 10^6 catoms on 2 processes, setup moved
 // 496,568 bodies so).
-std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& scene) {
-    const std::vector<std::uint32_t> block = restart_bodies(scene);
+std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& /*scene*/, const std::vector<std::uint32_t>& block,
+                                                     const std::vector<Vec3>& positions) {
     std::vector<std::uint64_t> key(block.size());
     std::vector<CellLoad> mine;
     mine.reserve(block.size());
     for (std::size_t k = 0; k < block.size(); ++k) {
-        key[k] = cells_.key(scene.body(block[k]).position.data());
+        key[k] = cells_.key(positions[k].data());
         mine.push_back({key[k], 1, 1});
     }
     partition(merge_cells(std::move(mine)));

@@ -67,8 +67,10 @@ public:
 
     const Collectives& collectives() const override { return collectives_; }
     void check_scene(const Scene& scene, const std::string& collide, const std::string& solver) const override;
-    std::vector<std::uint32_t> initial_bodies(const Scene& scene) override;
-    std::vector<std::uint32_t> restart_bodies(const Scene& scene) const override;
+    std::vector<std::uint32_t> block(const Scene& scene) const override;
+    std::vector<std::uint32_t> initial_bodies(const Scene& scene, const std::vector<std::uint32_t>& block,
+                                              const std::vector<Vec3>& positions) override;
+    using Decomposition::initial_bodies;
     void setup(World& world, std::vector<WarmImpulse>* warm) override;
     void migrate(World& world, std::vector<WarmImpulse>* warm, long step) override;
     void exchange_states(World& world) override;

@@ -71,12 +71,12 @@ TEST(MpiDomain, SetupGivesEveryBodyOneOwnerInItsCells) {
     EXPECT_EQ(d.migrations(), 0) << "a fresh scene's bodies are built by their owners, none moves at setup";
 }
 
-// A restart builds blocks of ids (the positions are in the checkpoint) and
-// setup moves them to the owners of their cells.
+// A world built from blocks of ids, not from initial_bodies (no partition
+// yet): setup partitions and moves the bodies to the owners of their cells.
 TEST(MpiDomain, BlocksOfIdsMoveToTheirOwnersAtSetup) {
     const Scene sc = slab();
     mpi::MpiDomain d{sc, *g_exec};
-    const std::vector<std::uint32_t> ids = d.restart_bodies(sc);
+    const std::vector<std::uint32_t> ids = d.block(sc);
     World w{sc, SpaceKind::Simple, &ids};
     d.setup(w, nullptr);
     EXPECT_EQ(owned_everywhere(w), 512);

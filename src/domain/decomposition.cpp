@@ -5,12 +5,22 @@
 
 namespace parode {
 
-std::vector<std::uint32_t> Decomposition::initial_bodies(const Scene& scene) { return restart_bodies(scene); }
-
-std::vector<std::uint32_t> Decomposition::restart_bodies(const Scene& scene) const {
+std::vector<std::uint32_t> Decomposition::block(const Scene& scene) const {
     std::vector<std::uint32_t> ids(scene.body_count());
     std::iota(ids.begin(), ids.end(), 0u);
     return ids;
+}
+
+std::vector<std::uint32_t> Decomposition::initial_bodies(const Scene& /*scene*/, const std::vector<std::uint32_t>& block,
+                                                         const std::vector<Vec3>& /*positions*/) {
+    return block;
+}
+
+std::vector<std::uint32_t> Decomposition::initial_bodies(const Scene& scene) {
+    const std::vector<std::uint32_t> ids = block(scene);
+    std::vector<Vec3> at(ids.size());
+    for (std::size_t k = 0; k < ids.size(); ++k) at[k] = scene.body(ids[k]).position;
+    return initial_bodies(scene, ids, at);
 }
 
 nlohmann::json Decomposition::report() const {

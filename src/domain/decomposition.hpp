@@ -40,13 +40,18 @@ public:
     // decomposition (collide/solver: the chosen backends).
     virtual void check_scene(const Scene& /*scene*/, const std::string& /*collide*/,
                              const std::string& /*solver*/) const {}
-    // The global ids this process builds for a fresh run (collective where
-    // distributed: the scene's cells are partitioned first, so each process
-    // builds the bodies it will own).
-    virtual std::vector<std::uint32_t> initial_bodies(const Scene& scene);
-    // The global ids this process reads from a checkpoint: the positions are
-    // in the file, so the partition comes after (setup).
-    virtual std::vector<std::uint32_t> restart_bodies(const Scene& scene) const;
+    // The global ids this process weighs first: a contiguous block of the
+    // scene's (every id on one process).
+    virtual std::vector<std::uint32_t> block(const Scene& scene) const;
+    // The global ids this process builds, given where the bodies of its
+    // block start (`positions[k]` of `block[k]`: the scene's positions for a
+    // fresh run, the checkpoint's for a restart). Collective where
+    // distributed: the cells are partitioned first, so each process builds
+    // the bodies it will own and setup moves none.
+    virtual std::vector<std::uint32_t> initial_bodies(const Scene& scene, const std::vector<std::uint32_t>& block,
+                                                      const std::vector<Vec3>& positions);
+    // initial_bodies for a fresh run: the block at its scene positions.
+    std::vector<std::uint32_t> initial_bodies(const Scene& scene);
     // Once, after the World is built: assign cells, move bodies to their
     // owners, make ghosts.
     virtual void setup(World& /*world*/, std::vector<WarmImpulse>* /*warm*/) {}

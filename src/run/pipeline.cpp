@@ -24,8 +24,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     domain_ = options.decomposition ? options.decomposition : own_domain_.get();
     domain_->check_scene(scene, options.collide, options.solver);
     backend_ = stages.collide.make(options.collide, *exec_);
-    const std::vector<std::uint32_t> gids =
-        options.restart_path.empty() ? domain_->initial_bodies(scene) : domain_->restart_bodies(scene);
+    if (!options.restart_path.empty()) open_checkpoint(options.restart_path);
+    const std::vector<std::uint32_t> gids = checkpoint_ ? restart_bodies() : domain_->initial_bodies(scene);
     world_ = std::make_unique<World>(scene, backend_->space_kind(), &gids);
     backend_->set_geoms(world_->space(), &world_->geoms());
     backend_->set_sphere_bodies(world_->sphere_bodies());
@@ -46,7 +46,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
     solver_ = stages.solver.make(options.solver, scene, *exec_);
     solver_->set_exchange(domain_->corrections());
-    if (!options.restart_path.empty()) restore(options.restart_path, gids);
+    if (checkpoint_) restore(gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled) make_force_passes();
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
@@ -83,11 +83,11 @@ void Pipeline::make_force_passes() {
     if (scene_.controller.enabled) forces_.push_back(r.make(Stages::threaded(r, "controller"), scene_, *exec_));
 }
 
-// Bodies from the checkpoint (this process's initial ids), ODE's dRand, the
-// step counter and the warm-start impulses of those bodies.
-void Pipeline::restore(const std::string& path, const std::vector<std::uint32_t>& gids) {
-    const Checkpoint c = read_checkpoint(path);
-    const auto& m = c.meta;
+// The checkpoint to restart from, refused unless it is of this scene.
+void Pipeline::open_checkpoint(const std::string& path) {
+    checkpoint_ = std::make_unique<Checkpoint>(read_checkpoint(path));
+    const auto& m = checkpoint_->meta;
+    const Checkpoint& c = *checkpoint_;
     if (m.value("scene_digest", std::string()) != hex64(scene_.digest) || c.bodies != scene_.body_count()) {
         throw std::invalid_argument("--restart " + path + ": written for scene '" + m.value("scene", std::string("?")) +
                                     "' (" + m.value("scene_file", std::string("?")) + ", digest " +
@@ -96,6 +96,24 @@ void Pipeline::restore(const std::string& path, const std::vector<std::uint32_t>
                                     std::to_string(scene_.body_count()) + " bodies): restart with the same scene "
                                     "file and the same --set options");
     }
+}
+
+// The ids this process builds on a restart: its block's positions from the
+// checkpoint, so that the cells are partitioned where the bodies are and
+// each process builds the bodies it will own (none moves at setup).
+std::vector<std::uint32_t> Pipeline::restart_bodies() {
+    const std::vector<std::uint32_t> block = domain_->block(scene_);
+    const std::vector<CheckpointRecord> records = read_records(*checkpoint_, block);
+    std::vector<Vec3> at(block.size());
+    for (std::size_t k = 0; k < block.size(); ++k) at[k] = {records[k].state.x[0], records[k].state.x[1], records[k].state.x[2]};
+    return domain_->initial_bodies(scene_, block, at);
+}
+
+// Bodies from the checkpoint (this process's initial ids), ODE's dRand, the
+// step counter and the warm-start impulses of those bodies.
+void Pipeline::restore(const std::vector<std::uint32_t>& gids) {
+    const Checkpoint& c = *checkpoint_;
+    const auto& m = c.meta;
     const std::vector<CheckpointRecord> records = read_records(c, gids);
     std::int64_t inexact = 0;
     for (std::size_t k = 0; k < gids.size(); ++k) {

@@ -21,6 +21,7 @@
 #include "domain/decomposition.hpp"
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
+#include "io/checkpoint.hpp"
 #include "io/snapshot.hpp"
 #include "io/trajectory.hpp"
 #include "observe/diagnostics.hpp"
@@ -124,7 +125,10 @@ public:
 private:
     void plan_stages(const Scene& scene, const RunOptions& options);
     void make_force_passes();
-    void restore(const std::string& path, const std::vector<std::uint32_t>& gids);
+    void open_checkpoint(const std::string& path);
+    std::vector<std::uint32_t> restart_bodies();
+    void restore(const std::vector<std::uint32_t>& gids);
+    std::unique_ptr<Checkpoint> checkpoint_;  // a restart's, until the steps begin
     void restore_run_state(const nlohmann::json& run);
     void run_migrate();
     void run_forces();
