@@ -46,13 +46,19 @@ def load(directory):
         name = os.path.basename(path)
         mode = name.split("-")[0] if name.split("-")[0] in MODES else "strong"
         steps = r["steps"]
-        par = r.get("parallel", {})
+        par = r.get("parallel") or {}
+        colours = par.get("colours", [])
         row = {"mode": mode, "catoms": r["bodies"], "ranks": r.get("ranks", 1), "threads": r["threads"],
                "ms": r["ms_per_step"], "hash": r["state_hash"],
                "ghost_fraction": par.get("ghost_fraction", 0.0),
                "comm_s": par.get("comm_seconds", {}).get("max", 0.0) if isinstance(par.get("comm_seconds"), dict) else 0.0,
                "messages": par.get("messages_per_step", 0.0),
                "rss_mb": r.get("memory", {}).get("peak_rss_bytes", {}).get("max", 0.0) / 2**20,
+               # the solver's colours: compute (slowest rank, mean rank) and waits, ms a step
+               "colour_max_ms": 1e3 * sum(c["compute_s"]["max"] for c in colours) / steps,
+               "colour_avg_ms": 1e3 * sum(c["compute_s"]["avg"] for c in colours) / steps,
+               "wait_ms": 1e3 * par.get("wait_seconds", {}).get("max", 0.0) / steps,
+               "colour_imbalance": par.get("colour_imbalance", 1.0),
                "wall": r.get("steps_wall_s", r["wall_s"])}
         for s in STAGES:
             row[s] = 1e3 * r["stages"].get(s, 0.0) / steps
@@ -63,7 +69,8 @@ def load(directory):
 def summarise(df):
     keys = ["mode", "catoms", "ranks", "threads"]
     g = df.groupby(keys)
-    out = g[["ms"] + STAGES + ["ghost_fraction", "comm_s", "messages", "rss_mb", "wall"]].median()
+    out = g[["ms"] + STAGES + ["ghost_fraction", "comm_s", "messages", "rss_mb", "wall", "colour_max_ms",
+                               "colour_avg_ms", "wait_ms", "colour_imbalance"]].median()
     out["ms_min"] = g["ms"].min()
     out["ms_max"] = g["ms"].max()
     out["runs"] = g["ms"].count()
@@ -100,14 +107,16 @@ def hashes_agree(df):
 
 def markdown(out, bad):
     lines = ["| mode | catoms | ranks | threads | ms/step (min-max) | speed-up | efficiency | collide | solve | "
-             "migrate+exchange | ghosts | comm share | msgs/step | peak MB/rank |", "|" + "---|" * 14]
+             "migrate+exchange | ghosts | comm share | msgs/step | colour imb. | solver waits | peak MB/rank |",
+             "|" + "---|" * 16]
     for _, r in out.iterrows():
         sp = f"{r['speedup']:.2f}" if "speedup" in r and pd.notna(r.get("speedup")) else "-"
         ef = f"{r['efficiency']:.2f}" if pd.notna(r.get("efficiency")) else "-"
         lines.append(f"| {r['mode']} | {r['catoms']} | {r['ranks']} | {r['threads']} | {r['ms']:.1f} "
                      f"({r['ms_min']:.1f}-{r['ms_max']:.1f}) | {sp} | {ef} | {r['collide']:.1f} | {r['solve']:.1f} | "
                      f"{r['migrate'] + r['exchange']:.1f} | {100 * r['ghost_fraction']:.1f} % | "
-                     f"{100 * r['comm_share']:.1f} % | {r['messages']:.0f} | {r['rss_mb']:.0f} |")
+                     f"{100 * r['comm_share']:.1f} % | {r['messages']:.0f} | {r['colour_imbalance']:.3f} | "
+                     f"{r['wait_ms']:.1f} | {r['rss_mb']:.0f} |")
     lines.append("")
     lines.append("state hash identical for every rank and thread count of each size" if not bad
                  else "STATE HASHES DIFFER: " + "; ".join(bad))
@@ -130,7 +139,7 @@ def plot(out, path, title=""):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), gridspec_kw={"width_ratios": [1, 1, 1.4]})
+    fig, axes = plt.subplots(1, 4, figsize=(21, 4.8), gridspec_kw={"width_ratios": [1, 1, 1.4, 1.2]})
     top = 1
     for label, mode, line, free in series(out):
         cores = line.ranks * line.threads
@@ -154,6 +163,17 @@ def plot(out, path, title=""):
         bottom = [b + v for b, v in zip(bottom, vals)]
     axes[2].set_xticks(range(len(out)), labels, fontsize=7)
     axes[2].set(ylabel="ms per step (slowest rank, median run)", title="time per stage")
+    # The solver's colours on distributed runs: each colour waits for its
+    # slowest rank; the gap between the slowest and the mean rank's compute
+    # is the colours' imbalance, the waits add the messages.
+    dist = out[out.ranks > 1].reset_index(drop=True)
+    x = range(len(dist))
+    axes[3].bar([i - 0.27 for i in x], dist.colour_avg_ms, width=0.27, label="compute, mean rank")
+    axes[3].bar(list(x), dist.colour_max_ms, width=0.27, label="compute, slowest rank")
+    axes[3].bar([i + 0.27 for i in x], dist.wait_ms, width=0.27, label="waits, slowest rank")
+    axes[3].set_xticks(list(x), [f"n={r.catoms}\n{r.ranks}r x {r.threads}t\nimb {r.colour_imbalance:.3f}"
+                                 for r in dist.itertuples()], fontsize=7)
+    axes[3].set(ylabel="ms per step", title="solver colours (distributed runs)")
     for ax in axes:
         ax.legend(fontsize=7)
     if title:
