@@ -19,6 +19,26 @@ have() { for f in "$@"; do [ -s "$WORK/$f" ] || fail "$f was not written"; done;
 expect() { grep -qE -- "$1" "$WORK/out.txt" || fail "the output lacks /$1/"; }
 
 case "$CASE" in
+  scaling_model)
+    M="$RESULTS/ranks-overlap/model"
+    python3 "$ROOT/analysis/scaling_model.py" --one "$M/one-1e6.json" --two "$M/two-1e6.json" \
+      --latency "$M/latency.json" --out "$WORK/model.md" >"$WORK/out.txt"
+    have model.md
+    # 1 rank is the reference; the committed calibration projects >= 0.80 at
+    # 1,000 ranks with 10^6 catoms a rank and >= 0.70 with 10^5 (cluster).
+    expect "^\| 1,000,000 \| 1.00 \(0/0/0\)"
+    python3 - "$WORK/model.md" <<'PY' || fail "projected efficiencies out of line"
+import re, sys
+text = open(sys.argv[1]).read().split("### cluster")[1]
+for size, least in (("1,000,000", 0.80), ("100,000", 0.70)):
+    row = next(l for l in text.splitlines() if l.startswith(f"| {size} |"))
+    cells = [float(c.split()[0]) for c in row.strip("|").split("|")[1:]]
+    assert all(0 < e <= 1.0 for e in cells), row
+    assert cells[5] >= least, (size, cells[5])       # R = 1000
+    assert cells == sorted(cells, reverse=True), row  # efficiency never rises with R
+PY
+    rc=0; python3 "$ROOT/analysis/scaling_model.py" --one "$M/two-1e6.json" --two "$M/two-1e6.json" >"$WORK/out.txt" 2>&1 || rc=$?
+    [ "$rc" -ne 0 ] || fail "a two-rank report as --one was accepted" ;;
   rank_scaling)
     python3 "$ROOT/analysis/rank_scaling.py" "$RESULTS/scaling/threads" "$RESULTS/scaling/strong" \
       "$RESULTS/scaling/weak" --out "$WORK" >"$WORK/out.txt"
