@@ -5,14 +5,16 @@
 #include <cstdlib>
 
 #include "domain/cells.hpp"
+#include "partition.hpp"
 #include "util/split_mix.hpp"
 
 namespace parode::mpi {
 
-void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks) {
+void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks, int edge) {
     keys_ = std::move(keys);
     owners_ = std::move(owners);
     ranks_ = ranks;
+    edge_ = std::max(edge, 1);
     owner_cache_.clear();
     holder_cache_.clear();
 }
@@ -47,7 +49,8 @@ int CellMap::nearest_owner(std::uint64_t key) const {
     return static_cast<int>(SplitMix64::mix(key) % static_cast<std::uint64_t>(ranks_));
 }
 
-int CellMap::owner(std::uint64_t key) const {
+int CellMap::owner(std::uint64_t cell) const {
+    const std::uint64_t key = block_of(cell, edge_);
     const int o = mapped_owner(key);
     if (o >= 0) return o;
     const auto it = owner_cache_.find(key);

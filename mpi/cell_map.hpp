@@ -1,17 +1,20 @@
 // Which process owns each cell of the global cell grid (domain/cells.hpp).
-// The map holds the occupied cells of the last partition with their owners,
-// the same on every process. A cell that was empty then (a ball rolling out
-// across the floor enters one) belongs to the owner of the nearest mapped
-// cell (Chebyshev distance, the smallest key among equally near ones); past
-// kReach cells, to the rank given by a hash of its key. So the owner of any
-// cell is a pure function of the map, and every process agrees on it
-// without a message.
+// The map holds the occupied blocks of the last partition (cubes of `edge`
+// cells a side, partition.hpp: block_edge) with their owners, the same on
+// every process; a cell belongs to the owner of its block. A block that was
+// empty then (a ball rolling out across the floor enters one) belongs to the
+// owner of the nearest mapped block (Chebyshev distance, the smallest key
+// among equally near ones); past kReach blocks, to the rank given by a hash
+// of its key. So the owner of any cell is a pure function of the map, and
+// every process agrees on it without a message.
 // holders(key): the owners of the 27 cells around a cell; a body there is
 // owned by the owner of its cell and copied (a ghost) to every other holder,
 // which covers all contact and magnet partners (they lie in adjacent cells).
-// Trade-off: the map is replicated (12 bytes per occupied cell on every
-// process), which keeps lookups local and deterministic; at hundreds of
-// millions of catoms it would want a distributed directory instead.
+// Trade-off: the map is replicated (12 bytes per occupied block on every
+// process, up to 64 times fewer than cells), which keeps lookups local and
+// deterministic; at 10^10 catoms (10^8 blocks) it would want a distributed
+// directory instead. The holders of a cell are cached for the cells this
+// process meets: its own and its neighbours', a local size.
 #pragma once
 #include <cstdint>
 #include <unordered_map>
@@ -23,9 +26,11 @@ class CellMap {
 public:
     static constexpr int kReach = 8;
 
-    // `keys` sorted ascending, `owners[i]` the rank of keys[i].
-    void assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks);
-    int owner(std::uint64_t key) const;
+    // `keys` (blocks of `edge` cells a side, partition.hpp: block_of) sorted
+    // ascending, `owners[i]` the rank of keys[i].
+    void assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks, int edge = 1);
+    int edge() const { return edge_; }
+    int owner(std::uint64_t cell) const;
     // Sorted distinct ranks owning the cell and its 26 neighbours.
     const std::vector<int>& holders(std::uint64_t key) const;
     std::size_t mapped() const { return keys_.size(); }
@@ -39,6 +44,7 @@ private:
     std::vector<std::uint64_t> keys_;
     std::vector<int> owners_;
     int ranks_ = 1;
+    int edge_ = 1;
     mutable std::unordered_map<std::uint64_t, int> owner_cache_;
     mutable std::unordered_map<std::uint64_t, std::vector<int>> holder_cache_;
 };

@@ -124,7 +124,13 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
 // Collective: the root gathers every process's cells (merged), partitions
 // them, keeps parts on the processes that hold most of them (keep_owners) and
 // sends the map back.
-void MpiDomain::partition(std::vector<CellLoad> mine) {
+void MpiDomain::partition(std::vector<CellLoad> cells) {
+    // Blocks of cells, summed here: what reaches the root grows with the
+    // machine 64 times slower than the cells (partition.hpp: block_edge).
+    std::int64_t occupied = static_cast<std::int64_t>(cells.size());
+    comm_.sum(&occupied, 1);
+    const int edge = block_edge(occupied, ranks());
+    const std::vector<CellLoad> mine = coarsen(cells, edge);
     Bytes packed(mine.size() * sizeof(CellLoad));
     if (!mine.empty()) std::memcpy(packed.data(), mine.data(), packed.size());
     const auto parts = comm_.gather(packed, 0);
@@ -161,7 +167,7 @@ void MpiDomain::partition(std::vector<CellLoad> mine) {
         keys[i] = take<std::uint64_t>(result, at);
         owners[i] = take<std::int32_t>(result, at);
     }
-    map_.assign(std::move(keys), std::move(owners), ranks());
+    map_.assign(std::move(keys), std::move(owners), ranks(), edge);
     ++epoch_;  // every body's cached owner and holders belong to the old map
 }
 
@@ -499,7 +505,8 @@ nlohmann::json MpiDomain::report() const {
             {"setup_comm_seconds", {{"min", collectives_.min(setup.seconds)}, {"max", collectives_.max(setup.seconds)}}},
             {"setup_comm_bytes", c[3]},
             {"cell_edge", cells_.edge()},
-            {"cells", map_.mapped()}};
+            {"mapped_blocks", map_.mapped()},
+            {"block_edge_cells", map_.edge()}};
 }
 
 }  // namespace parode::mpi

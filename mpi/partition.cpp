@@ -18,6 +18,9 @@ namespace {
 // (collision, forces and integration, balanced once a step).
 constexpr int kColours = 8;
 constexpr int kConstraints = kColours + 1;
+// Units (cells or blocks) above which the partition coarsens: METIS's graph
+// on the root and every process's map stay under this many entries.
+constexpr std::int64_t kMaxUnits = 4000000;
 // How far a colour's work may exceed its mean on one part.
 constexpr double kColourTolerance = 1.06;
 
@@ -25,6 +28,20 @@ struct Graph {
     std::vector<idx_t> xadj{0}, adjncy, vwgt, adjwgt;
     idx_t ncon = kConstraints;
 };
+
+}  // namespace
+
+// A unit's work by colour: its own when given, else a cell's (all its work
+// in its colour).
+std::array<std::int64_t, 8> colour_work(const CellLoad& c) {
+    std::array<std::int64_t, 8> w = c.colour;
+    bool any = false;
+    for (std::int64_t x : w) any = any || x != 0;
+    if (!any) w[static_cast<std::size_t>(CellSpace::colour(c.key))] = c.work;
+    return w;
+}
+
+namespace {
 
 // A constraint no cell weighs (a colour without cells) cannot be balanced:
 // METIS refuses it. Its column goes.
@@ -54,11 +71,13 @@ Graph build_graph(const std::vector<CellLoad>& cells, Balance balance) {
         return it != cells.end() && it->key == key ? static_cast<long>(it - cells.begin()) : -1L;
     };
     for (const CellLoad& c : cells) {
+        const std::array<std::int64_t, 8> by_colour = colour_work(c);
         for (int k = 0; k < kConstraints; ++k) {
-            const bool own = colours ? k == CellSpace::colour(c.key) : k == 0;  // Total: one column of work
-            g.vwgt.push_back(static_cast<idx_t>(k == kColours ? std::max<std::int64_t>(1, c.bodies)
-                                                : own         ? std::max<std::int64_t>(1, c.work)
-                                                              : 0));
+            const std::int64_t w = k == kColours ? std::max<std::int64_t>(1, c.bodies)
+                                   : colours     ? by_colour[static_cast<std::size_t>(k)]
+                                   : k == 0      ? std::max<std::int64_t>(1, c.work)
+                                                 : 0;  // Total: one column of work
+            g.vwgt.push_back(static_cast<idx_t>(w));
         }
         for (int x = -1; x <= 1; ++x) {
             for (int y = -1; y <= 1; ++y) {
@@ -108,6 +127,34 @@ std::vector<int> metis_parts(Graph& g, int parts, idx_t& cut) {
 
 }  // namespace
 
+std::uint64_t block_of(std::uint64_t key, int edge) {
+    if (edge <= 1) return key;
+    std::uint64_t k = 0;
+    for (int a = 0; a < 3; ++a) k |= (CellSpace::coord(key, a) / static_cast<std::uint64_t>(edge)) << (CellSpace::kBits * a);
+    return k;
+}
+
+int block_edge(std::int64_t cells, int parts) {
+    const std::int64_t least = std::int64_t{64} * std::max(parts, 1);  // blocks a part needs at the least
+    int edge = 1;
+    while (cells / (std::int64_t{edge} * edge * edge) > kMaxUnits && cells / (std::int64_t{8} * edge * edge * edge) >= least) {
+        edge *= 2;
+    }
+    return edge;
+}
+
+std::vector<CellLoad> coarsen(const std::vector<CellLoad>& cells, int edge) {
+    std::vector<CellLoad> blocks;
+    blocks.reserve(cells.size());
+    for (const CellLoad& c : cells) {
+        CellLoad b = c;
+        b.key = block_of(c.key, edge);
+        b.colour = colour_work(c);
+        blocks.push_back(b);
+    }
+    return merge_cells(std::move(blocks));
+}
+
 std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells) {
     std::sort(cells.begin(), cells.end(), [](const CellLoad& a, const CellLoad& b) { return a.key < b.key; });
     std::vector<CellLoad> out;
@@ -115,6 +162,7 @@ std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells) {
         if (!out.empty() && out.back().key == c.key) {
             out.back().work += c.work;
             out.back().bodies += c.bodies;
+            for (std::size_t k = 0; k < c.colour.size(); ++k) out.back().colour[k] += c.colour[k];
         } else {
             out.push_back(c);
         }
@@ -131,8 +179,9 @@ void measure(const std::vector<CellLoad>& cells, const Graph& g, int parts, Part
     std::int64_t total = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const auto part = static_cast<std::size_t>(p.owner[i]);
+        const std::array<std::int64_t, 8> w = colour_work(cells[i]);
         work[part] += cells[i].work;
-        by_colour[part * kColours + static_cast<std::size_t>(CellSpace::colour(cells[i].key))] += cells[i].work;
+        for (int c = 0; c < kColours; ++c) by_colour[part * kColours + static_cast<std::size_t>(c)] += w[static_cast<std::size_t>(c)];
         total += cells[i].work;
     }
     double slowest = 0;

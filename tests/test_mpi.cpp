@@ -92,6 +92,29 @@ TEST_F(Mpi, InjectedLatencyDelaysEveryExchangeAndChangesNoBit) {
     EXPECT_NE(bad.err.find("PARODE_INJECT_LATENCY_US=soon: expected microseconds"), std::string::npos) << bad.err;
 }
 
+// Memory per rank follows what the rank holds, not the machine: with 50,000
+// catoms a rank on 2, 4 and 8 ranks, the fullest rank's peak memory per body
+// it holds (owned ones and ghost copies) stays within 5 %. A rank keeps no
+// table of the whole scene (the cell map is of blocks past 4 million cells,
+// partition.hpp); what grows with more ranks is the ghost copies of more
+// faces, which the measure counts.
+TEST_F(Mpi, MemoryPerRankFollowsWhatTheRankHolds) {
+    std::vector<double> per_body;
+    for (int ranks : {2, 4, 8}) {
+        const std::string name = "mem" + std::to_string(ranks) + ".json";
+        const Result r = run(ranks, " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
+                                    " --steps 1 --threads 1 --set catoms.count=" + std::to_string(50000 * ranks) +
+                                    " --report " + path(name));
+        ASSERT_EQ(r.rc, 0) << r.err;
+        const nlohmann::json j = report(name);
+        const double held = 50000.0 * (1.0 + j["parallel"]["ghost_fraction"].get<double>());
+        per_body.push_back(j["memory"]["peak_rss_bytes"]["max"].get<double>() / held);
+    }
+    const auto [least, most] = std::minmax_element(per_body.begin(), per_body.end());
+    EXPECT_LE(*most / *least, 1.05) << "bytes per held body on 2, 4, 8 ranks: " << per_body[0] << ", " << per_body[1]
+                                    << ", " << per_body[2];
+}
+
 // Trajectory and snapshot files from 2 processes equal the one-process files, byte for byte.
 TEST_F(Mpi, OutputFilesEqualOneProcessFiles) {
     const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 60 --collide grid"

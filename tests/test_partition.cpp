@@ -169,4 +169,76 @@ TEST(CellMap, HoldersAreTheOwnersAround) {
     }
 }
 
+// Cells and blocks around (1000, 1000, 1000): no coordinate wraps.
+std::uint64_t mid(int x, int y, int z) { return CellSpace::neighbour(key_of(0, 0, 0), 1000 + x, 1000 + y, 1000 + z); }
+
+// The root partitions cells up to 4 million of them (about 32 million
+// catoms), then blocks of 2, 4, ... cells a side, never fewer than 64 a part.
+TEST(Blocks, EdgeGrowsOnlyPastFourMillionUnitsAndKeepsPartsFed) {
+    EXPECT_EQ(block_edge(1000000, 2), 1);
+    EXPECT_EQ(block_edge(4000000, 64), 1);
+    EXPECT_EQ(block_edge(10000000, 64), 2);
+    EXPECT_EQ(block_edge(100000000, 1000), 4);
+    EXPECT_EQ(block_edge(100000000, 200000), 1) << "blocks of 2 would leave a part under 64";
+}
+
+// Blocks of 2 cells a side hold one cell of each colour: the colours' work
+// stays apart, the totals add up.
+TEST(Blocks, CoarsenKeepsEveryColoursWork) {
+    std::vector<CellLoad> cells;
+    for (int x = 0; x < 4; ++x)
+        for (int y = 0; y < 4; ++y)
+            for (int z = 0; z < 4; ++z) cells.push_back({mid(x, y, z), 20 + x, 8});
+    const std::vector<CellLoad> blocks = coarsen(cells, 2);
+    ASSERT_EQ(blocks.size(), 8u);
+    std::int64_t work = 0;
+    for (const CellLoad& b : blocks) {
+        std::int64_t sum = 0;
+        for (std::int64_t w : b.colour) {
+            EXPECT_GT(w, 0) << "every colour in every block";
+            sum += w;
+        }
+        EXPECT_EQ(sum, b.work);
+        EXPECT_EQ(b.bodies, 8 * 8);
+        work += b.work;
+    }
+    EXPECT_EQ(work, 64 * 20 + 16 * (0 + 1 + 2 + 3));
+    const Partition p = partition_cells(blocks, 2);
+    EXPECT_LE(p.colour_imbalance, 1.15);
+}
+
+// A map of blocks: a cell belongs to its block's owner; holders look at the
+// blocks of the 27 cells around.
+TEST(CellMap, BlocksOwnTheirCells) {
+    std::vector<std::uint64_t> keys;
+    std::vector<int> owners;
+    for (int bx = 0; bx < 4; ++bx) {  // blocks of 2: cells x 0..7, y and z -2..3
+        for (int by = -1; by <= 1; ++by) {
+            for (int bz = -1; bz <= 1; ++bz) {
+                keys.push_back(block_of(mid(2 * bx, 2 * by, 2 * bz), 2));
+                owners.push_back(bx < 2 ? 0 : 1);
+            }
+        }
+    }
+    std::vector<std::size_t> order(keys.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return keys[a] < keys[b]; });
+    std::vector<std::uint64_t> k;
+    std::vector<int> o;
+    for (std::size_t i : order) {
+        k.push_back(keys[i]);
+        o.push_back(owners[i]);
+    }
+    CellMap m;
+    m.assign(k, o, 2, 2);
+    EXPECT_EQ(m.owner(mid(1, 1, 1)), 0);
+    EXPECT_EQ(m.owner(mid(3, 0, 1)), 0);
+    EXPECT_EQ(m.owner(mid(4, 0, 0)), 1);
+    EXPECT_EQ(m.owner(mid(9, 0, 0)), 1) << "the next block, empty: its nearest mapped block's owner";
+    EXPECT_EQ(m.holders(mid(1, 0, 0)), (std::vector<int>{0}));
+    EXPECT_EQ(m.holders(mid(3, 0, 0)), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(mid(4, 1, 1)), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(mid(6, 0, 0)), (std::vector<int>{1}));
+}
+
 }  // namespace
