@@ -206,6 +206,8 @@ int guarded(const std::function<int()>& action) {
         return report_failure(kExitScene, std::string("scene error: ") + e.what());
     } catch (const SimulationError& e) {
         return report_failure(kExitSimulation, std::string("simulation failed: ") + e.what());
+    } catch (const CheckpointError& e) {
+        return report_failure(kExitCheckpoint, std::string("cannot restart: ") + e.what());
     } catch (const OutputError& e) {
         return report_failure(kExitOutput, std::string("cannot write output: ") + e.what(), false);
     } catch (const MemoryError& e) {

@@ -13,12 +13,15 @@
 //      allocation failed
 //   7  interrupted by SIGTERM or SIGINT: the step finished, a checkpoint and the
 //      report (marked "interrupted") were written
+//   8  the --restart checkpoint cannot be used (a checksum differs, it is
+//      truncated, or it is no parode checkpoint): nothing was run
 //   70 internal error: any other exception, a bug (the message says what)
 // Trade-off: CLI11 handles parsing, validation and help; each subcommand is a
 // function of its own options so new ones do not grow main().
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -167,8 +170,13 @@ int run_command(const RunArgs& a) {
     if (!a.restart.empty()) {
         const std::string caveat = pipeline.restart_caveat();
         report["restart"] = {{"from", a.restart}, {"step", pipeline.first_step()}, {"exact", caveat.empty()},
-                             {"inexact_bodies", pipeline.inexact_restores()}, {"why", caveat}};
+                             {"inexact_bodies", pipeline.inexact_restores()}, {"why", caveat},
+                             {"checked", pipeline.restart_checked()}};
         if (!caveat.empty() && procs.root()) std::cerr << "parode: restart not bit for bit: " << caveat << "\n";
+    }
+    if (const CheckpointCost& k = pipeline.checkpoint_cost(); k.written > 0) {
+        report["checkpoints"] = {{"written", k.written}, {"seconds", k.seconds}, {"checksum_seconds", k.checksum_seconds},
+                                 {"checksum_share", k.checksum_seconds / std::max(k.seconds, 1e-12)}, {"bytes", k.bytes}};
     }
     if (stopped) report["interrupted"] = {{"signal", interrupts.name()}, {"step", pipeline.steps_done()}, {"checkpoint", checkpoint}};
     if (!procs.root()) return stopped ? kExitInterrupted : checks_exit_code(report, false);

@@ -12,9 +12,9 @@ preset="${1:-ci}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export DEBIAN_FRONTEND=noninteractive
 
-apt_packages=(build-essential cmake ninja-build pkg-config libode-dev libmetis-dev
+apt_packages=(build-essential cmake ninja-build pkg-config libode-dev libmetis-dev libxxhash-dev
   libopenmpi-dev openmpi-bin libgtest-dev nlohmann-json3-dev libtoml11-dev libcli11-dev shellcheck
-  libhdf5-dev libhdf5-openmpi-dev python3 python3-pip)
+  libhdf5-dev libhdf5-openmpi-dev hdf5-tools python3 python3-pip)
 [ "${CI:-}" = "true" ] || apt_packages+=(paraview python3-paraview xvfb xauth)
 missing=()
 for p in "${apt_packages[@]}"; do
@@ -27,10 +27,12 @@ if ((${#missing[@]})); then
   $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if ! python3 -c "import numpy, matplotlib, pandas, h5py" 2>/dev/null; then
-  echo "setup: installing numpy, matplotlib, pandas and h5py"
-  python3 -m pip install --quiet numpy matplotlib pandas h5py 2>/dev/null \
-    || python3 -m pip install --quiet --break-system-packages numpy matplotlib pandas h5py
+# h5py, pyh5md and MDAnalysis: the independent readers the snapshot tests use.
+python_packages=(numpy matplotlib pandas h5py pyh5md MDAnalysis)
+if ! python3 -c "import numpy, matplotlib, pandas, h5py, pyh5md, MDAnalysis" 2>/dev/null; then
+  echo "setup: installing ${python_packages[*]}"
+  python3 -m pip install --quiet "${python_packages[@]}" 2>/dev/null \
+    || python3 -m pip install --quiet --break-system-packages "${python_packages[@]}"
 fi
 
 cd "$root"

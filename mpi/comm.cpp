@@ -339,9 +339,15 @@ void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t 
     if (rc3 == MPI_SUCCESS) rc3 = write_tail(fh, static_cast<MPI_Offset>(tail_at) + before, tail);
     MPI_Type_free(&view);
     MPI_Type_free(&rec);
+    const int rc5 = MPI_File_sync(fh);  // on the disk before the caller renames the file into place
     const int rc4 = MPI_File_close(&fh);
     stats_.bytes += head.size() + records.size() + tail.size();
-    io_check(rc != MPI_SUCCESS ? rc : rc2 != MPI_SUCCESS ? rc2 : rc3 != MPI_SUCCESS ? rc3 : rc4, path, "writing");
+    io_check(rc != MPI_SUCCESS    ? rc
+             : rc2 != MPI_SUCCESS ? rc2
+             : rc3 != MPI_SUCCESS ? rc3
+             : rc5 != MPI_SUCCESS ? rc5
+                                  : rc4,
+             path, "writing");
 }
 
 #ifdef PARODE_HAVE_HDF5

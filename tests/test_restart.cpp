@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -75,22 +76,61 @@ TEST_F(Restart, CheckpointOfAnotherSceneIsRefused) {
 }
 
 TEST_F(Restart, DamagedCheckpointIsRefused) {
-    ASSERT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q --checkpoint c.ckpt"), 0);
+    const std::string run = "run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q";
+    ASSERT_EQ(parode(run + " --checkpoint c.ckpt"), 0);
+    const std::string good = parode::test::slurp(dir_ / "c.ckpt");
+    const parode::Checkpoint c = parode::read_checkpoint((dir_ / "c.ckpt").string());
     fs::resize_file(dir_ / "c.ckpt", fs::file_size(dir_ / "c.ckpt") - 10);
-    EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart c.ckpt --steps 5 -q"), 2);
-    EXPECT_NE(err().find("truncated or damaged checkpoint"), std::string::npos) << err();
-    ASSERT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q --checkpoint i.ckpt"), 0);
-    std::string bytes = parode::test::slurp(dir_ / "i.ckpt");
-    const std::size_t at = bytes.find("\"count\":");
-    ASSERT_NE(at, std::string::npos);
-    char& digit = bytes[at + 8];  // the first piece's count, its first digit changed: the index no longer adds up
-    digit = digit == '9' ? '1' : static_cast<char>(digit + 1);
-    std::ofstream(dir_ / "i.ckpt", std::ios::binary) << bytes;
-    EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart i.ckpt --steps 5 -q"), 2);
-    EXPECT_NE(err().find("damaged checkpoint header (impulse_index"), std::string::npos) << err();
+    EXPECT_EQ(parode(run + " --restart c.ckpt"), 8);
+    EXPECT_NE(err().find("damaged checkpoint: truncated"), std::string::npos) << err();
+    ASSERT_GT(c.impulses, 0u);
+    struct Damage {
+        std::uint64_t at;
+        const char* message;
+    };
+    const Damage cases[] = {
+        {good.find("\"count\":") + 8, "header checksum"},
+        {c.head_bytes + 20 * parode::kRecordBytes + 3, "the records of bodies 0 to 63: checksum"},
+        {good.size() - 3, "the impulses written by process 0"},
+        {4, "not a parode checkpoint, or a damaged one"},
+    };
+    for (const Damage& d : cases) {
+        std::string bytes = good;
+        bytes[d.at] = static_cast<char>(bytes[d.at] ^ 0x10);
+        std::ofstream(dir_ / "d.ckpt", std::ios::binary) << bytes;
+        EXPECT_EQ(parode(run + " --restart d.ckpt"), 8) << "byte " << d.at;
+        EXPECT_NE(err().find(d.message), std::string::npos) << err();
+        EXPECT_NE(err().find("d.ckpt.prev"), std::string::npos) << "the message points at the kept one";
+    }
     std::ofstream(dir_ / "junk.ckpt") << "not a checkpoint\n";
-    EXPECT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --restart junk.ckpt --steps 5 -q"), 2);
+    EXPECT_EQ(parode(run + " --restart junk.ckpt"), 8);
     EXPECT_NE(err().find("not a parode checkpoint"), std::string::npos) << err();
+}
+
+// Single bits flipped at random offsets (seeded) anywhere in a checkpoint
+// with impulses: every one is refused with exit 8, none runs on.
+TEST_F(Restart, EveryFlippedByteIsRefused) {
+    const std::string run = "run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q";
+    ASSERT_EQ(parode(run + " --checkpoint c.ckpt --report r.json"), 0);
+    const std::string good = parode::test::slurp(dir_ / "c.ckpt");
+    ASSERT_EQ(parode(run + " --restart c.ckpt --report ok.json"), 0) << err();
+    const nlohmann::json checked = report("ok.json")["restart"]["checked"];
+    EXPECT_TRUE(checked["verified"].get<bool>()) << checked;
+    EXPECT_EQ(checked["record_blocks"], 1);
+    EXPECT_EQ(checked["impulse_pieces"], 1);
+    std::mt19937_64 rng(20261127);
+    const parode::Checkpoint c = parode::read_checkpoint((dir_ / "c.ckpt").string());
+    const std::uint64_t sections[][2] = {{0, c.head_bytes},
+                                         {c.head_bytes, c.head_bytes + c.bodies * parode::kRecordBytes},
+                                         {c.head_bytes + c.bodies * parode::kRecordBytes, good.size()}};
+    for (int k = 0; k < 30; ++k) {
+        const auto& s = sections[k % 3];
+        const std::uint64_t at = s[0] + rng() % (s[1] - s[0]);
+        std::string bytes = good;
+        bytes[at] = static_cast<char>(bytes[at] ^ (1 << (rng() % 8)));
+        std::ofstream(dir_ / "d.ckpt", std::ios::binary) << bytes;
+        EXPECT_EQ(parode(run + " --restart d.ckpt"), 8) << "byte " << at << ": " << err();
+    }
 }
 
 // SIGTERM a long run; it stops after a step with exit 7, a checkpoint and a

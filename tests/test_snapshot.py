@@ -10,6 +10,10 @@ Each test runs `parode run` as a user does and checks the files it wrote:
   number type (hyperslabs inside it).
 - TwoRanks: the file written by 2 MPI processes holds exactly the datasets
   and attributes of the one-process file.
+- Strings: every string attribute is variable-length UTF-8 (str in Python);
+  pyh5md and MDAnalysis (PyPI) read the file's elements and units.
+- Crash: runs killed with SIGKILL read to their last complete frame, equal
+  to the uninterrupted run's; the XDMF lists only complete frames.
 Usage: test_snapshot.py --parode BIN --source DIR [--mpiexec BIN] [unittest args]
 Trade-off: whole runs of a few hundred bodies (a second each) rather than
 calls into the writer: they test the files a user gets, the XDMF included.
@@ -17,9 +21,12 @@ calls into the writer: they test the files a user gets, the XDMF included.
 import argparse
 import json
 import os
+import random
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
 import xml.etree.ElementTree as ET
 
@@ -88,11 +95,11 @@ class Snapshot(unittest.TestCase):
     def test_layout(self):
         with h5py.File(self.h5, "r") as f:
             self.assertEqual(list(f["h5md"].attrs["version"]), [1, 1])
-            self.assertEqual(f["h5md/creator"].attrs["name"], b"parode")
+            self.assertEqual(f["h5md/creator"].attrs["name"], "parode")
             self.assertIn("name", f["h5md/author"].attrs)
             box = f["particles/all/box"]
             self.assertEqual(box.attrs["dimension"], 3)
-            self.assertEqual(list(box.attrs["boundary"]), [b"none"] * 3)
+            self.assertEqual(list(box.attrs["boundary"]), ["none"] * 3)
             self.assertTrue(np.all(box["edges"][:] > 0))
             frames = self.STEPS // self.EVERY + 1
             steps = np.arange(0, self.STEPS + 1, self.EVERY)
@@ -105,6 +112,54 @@ class Snapshot(unittest.TestCase):
                 np.testing.assert_array_equal(element["time"][:], steps * 0.005)
             self.check_fixed(f["particles/all"])
             self.check_rotations(f["particles/all"])
+
+    def test_strings_are_utf8(self):
+        """Every string attribute variable-length UTF-8, as h5py writes them: Python gets str."""
+        seen = []
+        with h5py.File(self.h5, "r") as f:
+            def visit(name, obj):
+                for key in obj.attrs:
+                    kind = h5py.check_string_dtype(obj.attrs.get_id(key).dtype)
+                    if kind is not None:
+                        seen.append(f"{name}@{key}")
+                        self.assertEqual((kind.encoding, kind.length), ("utf-8", None), f"{name}@{key}")
+                        values = np.atleast_1d(obj.attrs[key])
+                        self.assertTrue(all(isinstance(v, str) for v in values), f"{name}@{key}")
+            f.visititems(visit)
+            self.assertEqual(f["particles/all/position/time"].attrs["unit"], "s")
+        self.assertIn("particles/all/species@names", seen)
+        self.assertIn("h5md/creator@name", seen)
+
+    def test_pyh5md_reads_it(self):
+        """pyh5md (PyPI), an independent H5MD reader: the elements, steps, times and units."""
+        try:
+            import pyh5md
+        except ImportError:  # a failure, not a skip
+            self.fail("pyh5md is missing (run jobs/setup.sh, or python3 -m pip install pyh5md)")
+        with pyh5md.File(self.h5, "r") as f:
+            all_ = f.particles_group("all")
+            pos = pyh5md.element(all_, "position")
+            steps = np.arange(0, self.STEPS + 1, self.EVERY)
+            np.testing.assert_array_equal(pos.step[:], steps)
+            np.testing.assert_array_equal(pos.time[:], steps * 0.005)
+            self.assertEqual(pos.value.attrs["unit"], "m")
+            self.assertEqual(pos.time.attrs["unit"], "s")
+            self.assertEqual(pyh5md.element(all_, "velocity").value.attrs["unit"], "m s-1")
+            self.assertEqual(pos.value.shape, (len(steps), self.N, 3))
+
+    def test_mdanalysis_reads_the_units_as_text(self):
+        """MDAnalysis's H5MD reader gets the units as text: its time-unit check passes ('s', not
+        b's'). Its molecular unit tables hold no metre (Angstrom, nm, pm, fm), so where it stops
+        at the length unit, that is the only complaint allowed."""
+        try:
+            from MDAnalysis.coordinates.H5MD import H5MDReader
+        except ImportError:
+            self.fail("MDAnalysis is missing (run jobs/setup.sh, or python3 -m pip install MDAnalysis)")
+        try:
+            H5MDReader(self.h5).close()
+        except RuntimeError as e:
+            self.assertIn("length unit 'm' is not recognized", str(e))
+            self.assertNotIn("b'", str(e))
 
     def check_fixed(self, all_):
         np.testing.assert_array_equal(all_["id"][:], np.arange(self.N))
@@ -205,14 +260,90 @@ class TwoRanks(unittest.TestCase):
                 self.assertEqual(a["particles/all/position/value"].shape, (4, 2000, 3))
 
 
+class Crash(unittest.TestCase):
+    """Runs writing a frame every step, killed with SIGKILL at seeded random moments (every
+    process of the run at once): the file reads, with h5py, up to its last complete frame, each
+    frame equal to the uninterrupted run's; the XDMF beside it lists only such frames."""
+    N, STEPS, KILLS = 20000, 60, 4
+    ELEMENTS = ("position", "velocity", "orientation", "x_axis")
+
+    def kills(self, ranks, seed):
+        common = [TENNIS, "--steps", str(self.STEPS), "--set", f"catoms.count={self.N}", "--snapshot-every", "1"]
+        with tempfile.TemporaryDirectory(prefix="parode_crash_") as d:
+            ref = os.path.join(d, "ref.h5")
+            start = time.monotonic()
+            run(common + ["--snapshot", ref], ranks=ranks)
+            span = time.monotonic() - start
+            rng = random.Random(seed)
+            frames = []
+            with h5py.File(ref, "r") as r:
+                for k in range(self.KILLS):
+                    h5 = os.path.join(d, f"killed{k}.h5")
+                    p = start_run(common + ["--snapshot", h5], ranks)
+                    time.sleep(rng.uniform(0.3 * span, 0.9 * span))
+                    kill_session(p.pid)
+                    p.wait()
+                    if os.path.exists(h5):
+                        frames.append(self.check_killed(h5, r, swmr=not ranks))
+            self.assertTrue(any(0 < n < self.STEPS + 1 for n in frames), f"no kill landed mid-run: {frames}")
+            print(f"complete frames after each kill: {frames}", file=sys.stderr)
+
+    def check_killed(self, h5, ref, swmr):
+        """The number of complete frames of a killed run's file, each checked against `ref`."""
+        with h5py.File(h5, "r", swmr=swmr) as f:  # one process: SWMR, read as a SWMR reader
+            all_, want = f["particles/all"], ref["particles/all"]
+            n = len(all_["position/step"])
+            self.assertEqual(len(all_["position/time"]), n)
+            np.testing.assert_array_equal(all_["position/step"][:], want["position/step"][:n])
+            for name in self.ELEMENTS:
+                self.assertIn(all_[name + "/value"].shape[0], (n, n + 1), name)  # + 1: a frame begun
+                if n:
+                    np.testing.assert_array_equal(all_[name + "/value"][:n], want[name + "/value"][:n], name)
+        xdmf = os.path.splitext(h5)[0] + ".xdmf"
+        if os.path.exists(xdmf):
+            grids = ET.parse(xdmf).getroot().findall("./Domain/Grid[@CollectionType='Temporal']/Grid")
+            self.assertLessEqual(len(grids), n, "the XDMF lists only complete frames")
+            times = ref["particles/all/position/time"][:len(grids)]
+            self.assertEqual([float(g.find("Time").get("Value")) for g in grids], list(times))
+        return n
+
+    def test_one_process(self):
+        self.kills(0, 3901)
+
+    def test_two_ranks(self):
+        self.assertTrue(MPIEXEC, "needs mpiexec")
+        self.kills(2, 3902)
+
+
+def start_run(args, ranks):
+    launcher = [MPIEXEC, "-n", str(ranks), "--oversubscribe"] if ranks else []
+    return subprocess.Popen(launcher + [PARODE, "run"] + args + ["-q"], env=ENV, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+
+
+def kill_session(sid):
+    """SIGKILL to every process of session `sid` (mpiexec and its ranks)."""
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                if int(f.read().rsplit(")", 1)[1].split()[3]) == sid:
+                    os.kill(int(pid), signal.SIGKILL)
+        except (OSError, IndexError, ValueError):
+            pass
+
+
 def contents(f):
     """Every dataset's bytes and every attribute, by path."""
     out = {}
 
+    def value(v):
+        a = np.asarray(v)
+        return a.tolist() if a.dtype.kind == "O" else a.tobytes()  # strings: their text, not pointers
+
     def visit(name, obj):
-        out[name + "/@"] = {k: np.asarray(v).tobytes() for k, v in obj.attrs.items()}
+        out[name + "/@"] = {k: value(v) for k, v in obj.attrs.items()}
         if isinstance(obj, h5py.Dataset):
-            out[name] = (obj.shape, obj.dtype.str, obj[()].tobytes())
+            out[name] = (obj.shape, obj.dtype.str, value(obj[()]))
 
     f.visititems(visit)
     return out

@@ -1,17 +1,36 @@
 // Checkpoint files (see checkpoint.hpp).
 #include "io/checkpoint.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+#include <xxhash.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 
+#include "util/errors.hpp"
+#include "util/hash.hpp"
+
 namespace parode {
 namespace {
 
-const char* kMagic = "parode-checkpoint 1 ";
+const char* kMagic1 = "parode-checkpoint 1 ";
+const char* kMagic = "parode-checkpoint 2 ";
+constexpr std::size_t kFirstLine = 20 + 12 + 1 + 16 + 1;  // magic, head bytes, space, XXH3, newline
 constexpr std::uint64_t kAlign = 4096;
+
+std::uint64_t record_hash(const char* record, std::uint32_t gid) { return XXH3_64bits_withSeed(record, kRecordBytes, gid); }
+
+std::uint64_t sum_blocks(std::uint64_t bodies) { return (bodies + kRecordSumBlock - 1) / kRecordSumBlock; }
+
+[[noreturn]] void damaged(const std::string& path, const std::string& what) {
+    throw CheckpointError(path + ": damaged checkpoint: " + what +
+                          "; restart from an older one (the last one before it is kept as " + path + ".prev)");
+}
 
 void pack_record(const World& world, std::size_t i, char* out) {
     const BodyState s = world.state(i);
@@ -60,15 +79,38 @@ WarmImpulse unpack_impulse(const char* in) {
     return m;
 }
 
+// The first line (magic, head bytes, the XXH3 of the rest of the head),
+// then the JSON padded with spaces to the head bytes.
 std::vector<char> header(const nlohmann::json& meta, std::uint64_t& head_bytes) {
-    const std::string body = meta.dump() + "\n";
-    const std::size_t first = std::strlen(kMagic) + 13;  // magic, 12 digits, newline
-    head_bytes = (first + body.size() + kAlign - 1) / kAlign * kAlign;
+    std::string body = meta.dump() + "\n";
+    head_bytes = (kFirstLine + body.size() + kAlign - 1) / kAlign * kAlign;
+    body.resize(head_bytes - kFirstLine, ' ');
     char line[64];
-    std::snprintf(line, sizeof line, "%s%012llu\n", kMagic, static_cast<unsigned long long>(head_bytes));
-    std::string h = std::string(line) + body;
-    h.resize(head_bytes, ' ');
+    std::snprintf(line, sizeof line, "%s%012llu %s\n", kMagic, static_cast<unsigned long long>(head_bytes),
+                  hex64(XXH3_64bits(body.data(), body.size())).c_str());
+    const std::string h = std::string(line) + body;
     return std::vector<char>(h.begin(), h.end());
+}
+
+// Renames `tmp` over `path`, the FILE it replaces kept as FILE.prev: a hard
+// link first, so that `path` names a complete checkpoint at every moment;
+// then the folder synced, so that the rename survives a power loss.
+void commit(const std::string& tmp, const std::string& path) {
+    const std::string prev = path + ".prev";
+    if (::access(path.c_str(), F_OK) == 0) {
+        ::unlink(prev.c_str());
+        if (::link(path.c_str(), prev.c_str()) != 0) ::rename(path.c_str(), prev.c_str());  // no hard links here
+    }
+    if (::rename(tmp.c_str(), path.c_str()) != 0) {
+        throw OutputError(path + ": cannot rename " + tmp + " into place (" + std::strerror(errno) + ")");
+    }
+    const std::size_t slash = path.find_last_of('/');
+    const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd >= 0) {
+        ::fsync(fd);
+        ::close(fd);
+    }
 }
 
 // Impulses per block of the index: blocks of at least 256, and about 65,536
@@ -79,8 +121,8 @@ std::uint64_t index_block(std::int64_t impulses) {
 
 // This process's piece of the index: its impulse count, then the smallest
 // and largest lower id of each block of `block` impulses.
-std::vector<char> piece_index(const std::vector<WarmImpulse>* warm, std::uint64_t block) {
-    std::vector<std::uint64_t> v{warm ? warm->size() : 0};
+std::vector<char> piece_index(const std::vector<WarmImpulse>* warm, std::uint64_t block, std::uint64_t hash) {
+    std::vector<std::uint64_t> v{hash, warm ? warm->size() : 0};
     for (std::size_t b = 0; warm && b < warm->size(); b += block) {
         std::uint32_t lo = UINT32_MAX, hi = 0;
         for (std::size_t k = b; k < std::min<std::size_t>(warm->size(), b + block); ++k) {
@@ -96,12 +138,14 @@ std::vector<char> piece_index(const std::vector<WarmImpulse>* warm, std::uint64_
 }
 
 // Every process's piece, in file order, as the header's "impulse_index".
-nlohmann::json impulse_index(const Collectives& domain, const std::vector<WarmImpulse>* warm, std::uint64_t block) {
+nlohmann::json impulse_index(const Collectives& domain, const std::vector<WarmImpulse>* warm, std::uint64_t block,
+                             std::uint64_t hash) {
     nlohmann::json pieces = nlohmann::json::array();
-    for (const std::vector<char>& bytes : domain.all_gather(piece_index(warm, block))) {
+    for (const std::vector<char>& bytes : domain.all_gather(piece_index(warm, block, hash))) {
         std::vector<std::uint64_t> v(bytes.size() / sizeof(std::uint64_t));
         std::memcpy(v.data(), bytes.data(), v.size() * sizeof(std::uint64_t));
-        pieces.push_back({{"count", v.at(0)}, {"lo", std::vector<std::uint64_t>(v.begin() + 1, v.end())}});
+        pieces.push_back({{"xxh3", hex64(v.at(0))}, {"count", v.at(1)},
+                          {"lo", std::vector<std::uint64_t>(v.begin() + 2, v.end())}});
     }
     return {{"block", block}, {"pieces", pieces}};
 }
@@ -134,8 +178,17 @@ void check_index(const nlohmann::json& index, std::uint64_t impulses) {
 
 }  // namespace
 
-void write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
-                      const std::vector<WarmImpulse>* warm, nlohmann::json meta) {
+CheckpointCost& CheckpointCost::operator+=(const CheckpointCost& o) {
+    written += o.written;
+    seconds += o.seconds;
+    checksum_seconds += o.checksum_seconds;
+    bytes = o.bytes;
+    return *this;
+}
+
+CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
+                                const std::vector<WarmImpulse>* warm, nlohmann::json meta) {
+    const auto start = std::chrono::steady_clock::now();
     FilePieces f;
     f.record = kRecordBytes;
     std::vector<std::pair<std::uint32_t, std::size_t>> owned;
@@ -151,52 +204,113 @@ void write_checkpoint(const std::string& path, const Collectives& domain, const 
     if (warm) {
         for (const WarmImpulse& m : *warm) pack_impulse(m, f.tail);
     }
+    const auto hashing = std::chrono::steady_clock::now();
+    std::vector<std::uint64_t> sums(sum_blocks(world.global_body_count()), 0);
+    for (std::size_t k = 0; k < owned.size(); ++k) {
+        sums[f.gids[k] / kRecordSumBlock] += record_hash(f.records.data() + k * kRecordBytes, f.gids[k]);
+    }
+    const std::uint64_t tail_hash = XXH3_64bits(f.tail.data(), f.tail.size());
+    double cost[2] = {std::chrono::duration<double>(std::chrono::steady_clock::now() - hashing).count(), 0};
+    domain.sum_wrapping(sums.data(), static_cast<int>(sums.size()));  // every block's records, from every writer
     const std::int64_t impulses = domain.sum(static_cast<std::int64_t>(f.tail.size() / kImpulseBytes));
     meta["bodies"] = world.global_body_count();
     meta["impulses"] = impulses;
     meta["record_bytes"] = kRecordBytes;
     meta["impulse_bytes"] = kImpulseBytes;
-    meta["impulse_index"] = impulse_index(domain, warm, index_block(impulses));
+    meta["impulse_index"] = impulse_index(domain, warm, index_block(impulses), tail_hash);
     meta["written_by_ranks"] = domain.ranks();
+    std::vector<std::string> hex;
+    for (std::uint64_t s : sums) hex.push_back(hex64(s));
+    meta["checksums"] = {{"algorithm", "XXH3_64bits"}, {"record_block", kRecordSumBlock}, {"records", hex}};
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);
     if (domain.root()) f.head = head;
     f.records_at = head_bytes;
     f.tail_at = head_bytes + world.global_body_count() * kRecordBytes;
-    domain.write_file(path, f);
+    const std::string tmp = path + ".tmp";
+    domain.write_file(tmp, f);  // collective: this process's part on the disk when it returns
+    // Every process's part synced before the root renames; the root's verdict
+    // shared, so that every process throws or none does.
+    std::string failed;
+    domain.sum(std::int64_t{0});  // a barrier
+    if (domain.root()) {
+        try {
+            commit(tmp, path);
+        } catch (const OutputError& e) {
+            failed = e.what();
+        }
+    }
+    failed = domain.all_text(failed, "");
+    if (!failed.empty()) throw OutputError(failed);
+    cost[1] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    domain.max(cost, 2);
+    return {1, cost[1], cost[0], f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes};
 }
+
+namespace {
+
+// Version 2: the rest of the head read whole and its XXH3 checked against
+// the first line's; `json` gets the head's JSON line.
+void check_head(std::ifstream& in, const std::string& path, const std::string& line, Checkpoint& c, std::string& json) {
+    if (line.size() + 1 != kFirstLine) damaged(path, "the first line is not '" + std::string(kMagic) + "<12 digits> <16 hex digits>'");
+    c.head_bytes = std::stoull(line.substr(std::strlen(kMagic), 12));
+    if (c.head_bytes <= kFirstLine || c.head_bytes > (std::uint64_t{1} << 36) || c.head_bytes % kAlign) {
+        damaged(path, "the header's size " + std::to_string(c.head_bytes) + " is not a multiple of 4096");
+    }
+    std::string rest(c.head_bytes - kFirstLine, '\0');
+    in.read(rest.data(), static_cast<std::streamsize>(rest.size()));
+    if (!in) damaged(path, "the header ends before its " + std::to_string(c.head_bytes) + " bytes");
+    const std::string want = line.substr(std::strlen(kMagic) + 13), got = hex64(XXH3_64bits(rest.data(), rest.size()));
+    if (got != want) damaged(path, "header checksum " + got + ", written " + want);
+    json = rest.substr(0, rest.find('\n'));
+}
+
+}  // namespace
 
 Checkpoint read_checkpoint(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw std::invalid_argument(path + ": cannot open the checkpoint");
     std::string line;
     std::getline(in, line);
-    if (line.rfind(kMagic, 0) != 0) throw std::invalid_argument(path + ": not a parode checkpoint (no '" + std::string(kMagic) + "' line)");
     Checkpoint c;
     c.path = path;
+    c.version = line.rfind(kMagic, 0) == 0 ? 2 : line.rfind(kMagic1, 0) == 0 ? 1 : 0;
+    if (c.version == 0) {  // another file, or a checkpoint whose first bytes were damaged
+        throw CheckpointError(path + ": not a parode checkpoint, or a damaged one: its first line is '" +
+                              line.substr(0, 40) + "', expected '" + std::string(kMagic) +
+                              "<12 digits> <16 hex digits>'; if it is a damaged one, restart from an older one (the "
+                              "last one before it is kept as " + path + ".prev)");
+    }
     try {
-        c.head_bytes = std::stoull(line.substr(std::strlen(kMagic)));
         std::string json;
-        std::getline(in, json);
+        if (c.version == 2) {
+            check_head(in, path, line, c, json);
+        } else {
+            c.head_bytes = std::stoull(line.substr(std::strlen(kMagic1)));
+            std::getline(in, json);
+        }
         c.meta = nlohmann::json::parse(json);
         c.bodies = c.meta.at("bodies").get<std::uint64_t>();
         c.impulses = c.meta.at("impulses").get<std::uint64_t>();
         c.step = c.meta.at("step").get<long>();
         if (c.meta.contains("impulse_index")) check_index(c.meta.at("impulse_index"), c.impulses);
+    } catch (const CheckpointError&) {
+        throw;
     } catch (const std::exception& e) {
-        throw std::invalid_argument(path + ": damaged checkpoint header (" + e.what() + ")");
+        damaged(path, std::string("its header cannot be read (") + e.what() + ")");
     }
     in.seekg(0, std::ios::end);
     const auto size = static_cast<std::uint64_t>(in.tellg());
     const std::uint64_t want = c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes;
     if (size != want) {
-        throw std::invalid_argument(path + ": truncated or damaged checkpoint (" + std::to_string(size) + " bytes, expected " +
-                                 std::to_string(want) + ")");
+        damaged(path, "truncated or extended: " + std::to_string(size) + " bytes, expected " + std::to_string(want));
     }
     return c;
 }
 
-std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids) {
+std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids,
+                                           std::vector<std::uint64_t>* sums) {
+    if (sums) sums->assign(sum_blocks(c.bodies), 0);
     constexpr std::size_t kRunRecords = 4096;  // records read at once, at most
     std::ifstream in(c.path, std::ios::binary);
     std::vector<CheckpointRecord> out;
@@ -212,7 +326,11 @@ std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vecto
             throw std::invalid_argument(c.path + ": cannot read the records of bodies " + std::to_string(gids[i]) + " to " +
                                         std::to_string(gids[j - 1]));
         }
-        for (std::size_t k = 0; k < j - i; ++k) out.push_back(unpack_record(buf.data() + k * kRecordBytes));
+        for (std::size_t k = 0; k < j - i; ++k) {
+            const char* record = buf.data() + k * kRecordBytes;
+            if (sums) (*sums)[gids[i + k] / kRecordSumBlock] += record_hash(record, gids[i + k]);
+            out.push_back(unpack_record(record));
+        }
         i = j;
     }
     return out;
@@ -267,6 +385,60 @@ std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<st
     for (const ImpulseRange& r : ranges) scan_impulses(in, c, r, gids, out);
     std::sort(out.begin(), out.end(), warm_less);
     return out;
+}
+
+namespace {
+
+// Piece p of the impulses (from impulse `first`) read whole: "" when its
+// XXH3 is the index's, else what differs.
+std::string check_piece(const Checkpoint& c, const nlohmann::json& piece, std::uint64_t first, std::size_t p) {
+    const std::uint64_t count = piece.at("count").get<std::uint64_t>();
+    std::ifstream in(c.path, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes + first * kImpulseBytes));
+    XXH3_state_t* state = XXH3_createState();
+    XXH3_64bits_reset(state);
+    std::vector<char> chunk(std::size_t{1} << 20);
+    for (std::uint64_t left = count * kImpulseBytes; left > 0 && in;) {
+        const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left, chunk.size()));
+        in.read(chunk.data(), static_cast<std::streamsize>(n));
+        XXH3_64bits_update(state, chunk.data(), n);
+        left -= n;
+    }
+    const std::string got = hex64(XXH3_64bits_digest(state));
+    XXH3_freeState(state);
+    const std::string want = piece.value("xxh3", std::string("?"));
+    if (in && got == want) return "";
+    return "the impulses written by process " + std::to_string(p) + " (" + std::to_string(count) +
+           "): checksum " + got + ", written " + want;
+}
+
+}  // namespace
+
+nlohmann::json verify_checkpoint(const Checkpoint& c, std::vector<std::uint64_t> sums, const Collectives& domain) {
+    if (c.version < 2) return {{"verified", false}, {"why", "a version 1 checkpoint carries no checksums"}};
+    sums.resize(sum_blocks(c.bodies), 0);
+    domain.sum_wrapping(sums.data(), static_cast<int>(sums.size()));  // every id read once, somewhere
+    const nlohmann::json& want = c.meta.at("checksums").at("records");
+    for (std::size_t b = 0; b < sums.size(); ++b) {
+        const std::string w = b < want.size() ? want[b].get<std::string>() : "?";
+        if (hex64(sums[b]) != w) {
+            damaged(c.path, "the records of bodies " + std::to_string(b * kRecordSumBlock) + " to " +
+                                std::to_string(std::min(c.bodies, (b + 1) * kRecordSumBlock) - 1) + ": checksum " +
+                                hex64(sums[b]) + ", written " + w);
+        }
+    }
+    const nlohmann::json& pieces = c.meta.at("impulse_index").at("pieces");
+    std::string problem;
+    std::uint64_t first = 0;
+    for (std::size_t p = 0; p < pieces.size(); ++p) {
+        if (static_cast<int>(p % static_cast<std::size_t>(domain.ranks())) == domain.rank() && problem.empty()) {
+            problem = check_piece(c, pieces[p], first, p);
+        }
+        first += pieces[p].at("count").get<std::uint64_t>();
+    }
+    if (domain.sum(std::int64_t{problem.empty() ? 0 : 1}) > 0) damaged(c.path, domain.all_text(problem, "; "));
+    return {{"verified", true}, {"algorithm", "XXH3_64bits"}, {"header", true}, {"record_blocks", sums.size()},
+            {"impulse_pieces", pieces.size()}};
 }
 
 }  // namespace parode

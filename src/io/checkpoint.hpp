@@ -1,9 +1,13 @@
 // Checkpoints: everything the next step depends on, so that a run restarted
 // from step k gives the state of an uninterrupted run bit for bit, on any
-// number of processes. Layout of a file:
-//   "parode-checkpoint 1 <head bytes>\n" + JSON metadata, padded with spaces
-//     to a multiple of 4 KiB (step, time, the scene's name and digest, ODE's
-//     dRand state, run totals, guard and checks state, counts);
+// number of processes; written so that a crash at any moment leaves a
+// complete one, and read so that a damaged one is refused, never run on.
+// Layout of a file:
+//   "parode-checkpoint 2 <head bytes> <header XXH3>\n" + JSON metadata,
+//     padded with spaces to a multiple of 4 KiB (step, time, the scene's name
+//     and digest, ODE's dRand state, run totals, guard and checks state,
+//     counts, the checksums of the sections below); the XXH3 (64 bits) of
+//     everything after the first line up to the head bytes;
 //   one 168-byte record per body, in global-id order: position, the
 //     quaternion last handed to ODE and the one ODE holds, linear and angular
 //     velocity, initial position, awake (21 doubles);
@@ -15,6 +19,19 @@
 // and its impulses after them; a restarting process reads the records of the
 // ids it builds and the blocks of impulses that may hold those bodies', with
 // plain file reads.
+// Durability: the file is written as FILE.tmp beside FILE, synced to the
+// disk, and renamed over FILE by the root once every process has written;
+// the FILE it replaces stays as FILE.prev (a hard link made before the
+// rename). A crash at any moment leaves FILE complete (old or new).
+// Checksums (XXH3, libxxhash): the header's; each block of 65,536 records,
+// the sum modulo 2^64 of every record's XXH3 seeded with its id, so that the
+// ranks that write or read a block's records add their parts up in any
+// order; each writer's impulses as one piece. A restart checks the header as
+// it reads it and, collectively, every block of records (each restarting
+// process hashes the records it reads; every id is read once) and every
+// piece of impulses (a piece read whole by one process) before anything is
+// built from them; a difference throws CheckpointError naming the section
+// and both values. Version 1 files (no checksums) still read, unverified.
 // Trade-off: fixed-size records by gid make the body part identical for any
 // writer and let any reader pick its ids without an index; impulses are
 // grouped by writer, not sorted globally (no collective sort when writing),
@@ -49,17 +66,40 @@ struct Checkpoint {
     std::uint64_t bodies = 0;
     std::uint64_t impulses = 0;
     long step = 0;
+    int version = 2;  // 1: no checksums
+};
+
+// Records one checksum of the records section covers.
+constexpr std::uint64_t kRecordSumBlock = 65536;
+
+// What writing checkpoints cost (seconds: the slowest process's).
+struct CheckpointCost {
+    long written = 0;
+    double seconds = 0;           // packing, checksums, writing, syncing, renaming
+    double checksum_seconds = 0;  // the XXH3 of the records and impulses alone
+    std::uint64_t bytes = 0;      // of the last one
+    CheckpointCost& operator+=(const CheckpointCost& o);
 };
 
 // Collective: writes every process's owned bodies and impulses, with `meta`
 // (the root's) completed by counts. Throws std::runtime_error naming the file.
-void write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
+CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta);
-// The header of a checkpoint. Throws std::runtime_error naming the file and
-// what is wrong with it.
+// The header of a checkpoint, its checksum checked. Throws CheckpointError
+// naming the file and what is wrong with it (std::invalid_argument when it
+// cannot be opened).
 Checkpoint read_checkpoint(const std::string& path);
-// The records of `gids` (ascending), runs of consecutive ids read at once.
-std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids);
+// The records of `gids` (ascending), runs of consecutive ids read at once;
+// with `sums`, each record's XXH3 added to its block's entry (sized to the
+// blocks of the file).
+std::vector<CheckpointRecord> read_records(const Checkpoint& c, const std::vector<std::uint32_t>& gids,
+                                           std::vector<std::uint64_t>* sums = nullptr);
+// Collective: checks the records every process read (their block sums,
+// `sums` from read_records over ids that together cover every body once)
+// and every piece of impulses (piece p read whole by process p mod ranks)
+// against the header. Throws CheckpointError on every process, naming the
+// section and both values; returns what was checked, for the run report.
+nlohmann::json verify_checkpoint(const Checkpoint& c, std::vector<std::uint64_t> sums, const Collectives& domain);
 // The impulses whose lower body is one of `gids` (ascending), sorted: the
 // blocks the header's index says may hold them (all impulses if it has none).
 std::vector<WarmImpulse> read_impulses(const Checkpoint& c, const std::vector<std::uint32_t>& gids);

@@ -63,8 +63,11 @@ File::File(const std::string& path, const Collectives& domain) : path_(path) {
     Id access(check(H5Pcreate(H5P_FILE_ACCESS), "file access list"), H5Pclose);
     transfer_ = Id(check(H5Pcreate(H5P_DATASET_XFER), "transfer list"), H5Pclose);
     domain.h5_parallel(access.get(), transfer_.get());
-    // File format 2 (HDF5 1.8 and later), as H5MD recommends: any reader since 2008 opens it.
-    check(H5Pset_libver_bounds(access.get(), H5F_LIBVER_V18, H5F_LIBVER_V18), "format version");
+    single_ = H5Pget_driver(access.get()) == H5FD_SEC2;
+    // One process: format 1.10 (readers since 2016), which SWMR needs.
+    // Several: format 1.8, as H5MD recommends (readers since 2008).
+    const H5F_libver_t format = single_ ? H5F_LIBVER_V110 : H5F_LIBVER_V18;
+    check(H5Pset_libver_bounds(access.get(), format, format), "format version");
     file_ = Id(check(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, access.get()), "cannot create the file"), H5Fclose);
 }
 
@@ -73,6 +76,14 @@ void File::close() {
     transfer_.reset();
     check(H5Fclose(file_.release()), "closing the file (disk full?)");
 }
+
+void File::start_swmr() const {
+    if (!single_) return;
+    check(H5Fstart_swmr_write(file_.get()), "SWMR writing");
+    swmr_ = true;
+}
+
+void File::flush() const { check(H5Fflush(file_.get(), H5F_SCOPE_LOCAL), "flushing (disk full?)"); }
 
 std::int64_t File::check(std::int64_t rc, const std::string& what) const {
     if (rc < 0) throw OutputError(path_ + ": " + what + ": " + reason());
@@ -91,15 +102,14 @@ void File::attribute(hid_t obj, const std::string& name, const std::string& valu
     attribute(obj, name, std::vector<std::string>{value});
 }
 
-// Fixed-length, null-terminated ASCII strings.
+// Variable-length UTF-8 strings, as h5py writes them: Python readers get str.
 void File::attribute(hid_t obj, const std::string& name, const std::vector<std::string>& values) const {
-    std::size_t len = 1;
-    for (const std::string& v : values) len = std::max(len, v.size() + 1);
     Id type(check(H5Tcopy(H5T_C_S1), "string type"), H5Tclose);
-    check(H5Tset_size(type.get(), len), "string type");
-    std::vector<char> buf(len * values.size(), '\0');
-    for (std::size_t i = 0; i < values.size(); ++i) values[i].copy(buf.data() + i * len, values[i].size());
-    put(*this, obj, name, type.get(), type.get(), values.size(), buf.data());
+    check(H5Tset_size(type.get(), H5T_VARIABLE), "string type");
+    check(H5Tset_cset(type.get(), H5T_CSET_UTF8), "string type");
+    std::vector<const char*> ptrs;
+    for (const std::string& v : values) ptrs.push_back(v.c_str());
+    put(*this, obj, name, type.get(), type.get(), values.size(), ptrs.data());
 }
 
 void File::attribute(hid_t obj, const std::string& name, const std::vector<std::int64_t>& values) const {

@@ -5,6 +5,12 @@
 // opened by every process of the domain together (MPI-IO; each process writes its own block)
 // or by the one process alone (HDF5's POSIX driver), as Domain::h5_parallel
 // decides; every call here is then collective.
+// Crash safety: a file of one process is written in HDF5's SWMR mode (file
+// format 1.10) once its objects exist, so that its metadata reach the disk in
+// an order that keeps it readable at every moment; a file of several
+// processes (MPI-IO, where HDF5 has no SWMR) keeps format 1.8, whose
+// superblock carries no "open for writing" flag. Both are flushed after every
+// frame by the writer. Strings are variable-length UTF-8, as h5py writes them.
 // Trade-off: the C API (the C++ binding is not supported with parallel HDF5)
 // behind a dozen functions, rather than a general wrapper.
 #pragma once
@@ -51,6 +57,12 @@ public:
     File(const std::string& path, const Collectives& domain);
     // Collective; the object handles must be closed first. Throws on failure.
     void close();
+    // Once every group, dataset and attribute exists: SWMR writing, for a
+    // file of one process (nothing for several).
+    void start_swmr() const;
+    bool swmr() const { return swmr_; }
+    // Collective: what was written so far, to the operating system.
+    void flush() const;
 
     const std::string& path() const { return path_; }
     hid_t id() const { return file_.get(); }
@@ -77,6 +89,8 @@ public:
 
 private:
     std::string path_;
+    bool single_ = false;  // one process, HDF5's POSIX driver
+    mutable bool swmr_ = false;
     Id transfer_;
     Id file_;
 };

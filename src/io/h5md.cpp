@@ -4,6 +4,7 @@
 #include <ode/ode.h>
 
 #include <array>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 
@@ -35,6 +36,9 @@ constexpr std::array<Element, 4> kElements{{{"position", 3, Type::F64, "m"},
                                             {"x_axis", 3, Type::F32, ""}}};
 constexpr int kRow = 10;  // position, velocity, orientation
 constexpr std::size_t kXAxis = 3;
+// The XDMF is rewritten whole (one grid a frame): at most this often while
+// the run goes on, and at the end.
+constexpr int kXdmfSeconds = 10;
 
 void state_row(const World& world, std::size_t i, double* out) {
     const dReal* p = dBodyGetPosition(world.body(i));
@@ -110,6 +114,7 @@ private:
     h5::Id step_, time_;
     std::array<h5::Id, kElements.size()> value_;
     XdmfLayout layout_;
+    std::chrono::steady_clock::time_point xdmf_written_;
 };
 
 H5md::H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain)
@@ -129,6 +134,7 @@ H5md::H5md(const std::string& path, const Scene& scene, const World& world, cons
     layout_.bodies = world.global_body_count();
     layout_.quads = mesh.quads();
     layout_.hexes = mesh.hexes();
+    file_.start_swmr();
 }
 
 H5md::~H5md() {
@@ -228,16 +234,13 @@ void H5md::write_whole(const h5::Id& parent, const std::string& name, Type type,
     file_.write(d.get(), type, std::vector<hsize_t>(dims.size(), 0), dims, data);
 }
 
+// The values first, then step and time: their length is the number of
+// complete frames whenever the file is read. Flushed, then the XDMF (at most
+// every kXdmfSeconds) lists the frames on the disk.
 void H5md::write(const World& world, long step, double time) {
     const auto row = [&world](std::size_t i, double* out) { state_row(world, i, out); };
     const std::vector<double> rows = block_rows(domain_, world, kRow, row);
     const hsize_t f = layout_.steps.size();
-    const std::int64_t s = step;
-    const hsize_t one = domain_.root() ? 1 : 0;
-    file_.extend(step_.get(), f + 1);
-    file_.extend(time_.get(), f + 1);
-    file_.write(step_.get(), Type::I64, {f}, {one}, &s);
-    file_.write(time_.get(), Type::F64, {f}, {one}, &time);
     std::vector<double> column;
     int at = 0;
     for (std::size_t e = 0; e < kXAxis; ++e) {
@@ -248,8 +251,20 @@ void H5md::write(const World& world, long step, double time) {
     std::vector<float> axes;
     x_axes(rows, block_.count, axes);
     write_frame(kXAxis, f, axes.data());
+    const std::int64_t s = step;
+    const hsize_t one = domain_.root() ? 1 : 0;
+    file_.extend(step_.get(), f + 1);
+    file_.extend(time_.get(), f + 1);
+    file_.write(step_.get(), Type::I64, {f}, {one}, &s);
+    file_.write(time_.get(), Type::F64, {f}, {one}, &time);
+    file_.flush();
     layout_.steps.push_back(step);
     layout_.times.push_back(time);
+    const auto now = std::chrono::steady_clock::now();
+    if (domain_.root() && (f == 0 || now - xdmf_written_ >= std::chrono::seconds(kXdmfSeconds))) {
+        write_xdmf(xdmf_, layout_);
+        xdmf_written_ = now;
+    }
 }
 
 void H5md::write_frame(std::size_t e, hsize_t f, const void* data) {

@@ -21,6 +21,12 @@
 // write together: each its contiguous block of ids (domain/gather.hpp
 // block_rows), through MPI-IO with independent transfers when distributed, so
 // the file holds the one-process data whatever the number of processes.
+// A frame's values are written before its step and time, and the file is
+// flushed after each frame: a run killed at any moment leaves the frames
+// counted by `step` complete (one process: SWMR mode, format 1.10, readable
+// with h5py's swmr=True or after `h5clear -s`; several: format 1.8, see
+// h5_file.hpp); the XDMF beside it lists only frames already flushed.
+// Strings (units, names) are variable-length UTF-8.
 // Trade-off: one chunk per frame and block of 2^20 bodies, so a frame is
 // written and read in large pieces; uncompressed, so that any reader (XDMF
 // included) maps the datasets directly: 92 bytes per body per frame, 12 of

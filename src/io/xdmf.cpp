@@ -85,12 +85,19 @@ std::string xdmf_text(const XdmfLayout& l) {
     return os.str();
 }
 
+// Written beside it and renamed over it: a reader sees the old or the new one whole.
 void write_xdmf(const std::string& path, const XdmfLayout& layout) {
-    std::ofstream out(path, std::ios::trunc);
-    if (!out) throw OutputError(path + ": cannot open the XDMF file for writing");
-    out << xdmf_text(layout);
-    out.flush();
-    if (!out) throw OutputError(path + ": the XDMF file could not be written (disk full?)");
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::trunc);
+        if (!out) throw OutputError(tmp + ": cannot open the XDMF file for writing");
+        out << xdmf_text(layout);
+        out.flush();
+        if (!out) throw OutputError(tmp + ": the XDMF file could not be written (disk full?)");
+    }
+    std::error_code e;
+    std::filesystem::rename(tmp, path, e);
+    if (e) throw OutputError(path + ": cannot rename " + tmp + " into place (" + e.message() + ")");
 }
 
 std::string xdmf_path(const std::string& h5_path) {

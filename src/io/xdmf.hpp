@@ -6,7 +6,8 @@
 // block of its own (planes as quadrilaterals, static geoms as hexahedra).
 // Trade-off: XDMF 2, plain XML written directly (ParaView's "XDMF Reader"
 // reads it; no XDMF library to build against); a description only, so the
-// whole file is rewritten at the end, one grid per frame.
+// whole file is rewritten (atomically: beside it, then renamed) as frames
+// reach the disk and at the end, one grid per frame.
 #pragma once
 #include <cstdint>
 #include <string>

@@ -100,10 +100,14 @@ void Pipeline::open_checkpoint(const std::string& path) {
 
 // The ids this process builds on a restart: its block's positions from the
 // checkpoint, so that the cells are partitioned where the bodies are and
-// each process builds the bodies it will own (none moves at setup).
+// each process builds the bodies it will own (none moves at setup). The
+// blocks cover every id once, so their checksums verify the whole file
+// before any position is used.
 std::vector<std::uint32_t> Pipeline::restart_bodies() {
     const std::vector<std::uint32_t> block = domain_->block(scene_);
-    const std::vector<CheckpointRecord> records = read_records(*checkpoint_, block);
+    std::vector<std::uint64_t> sums;
+    const std::vector<CheckpointRecord> records = read_records(*checkpoint_, block, &sums);
+    checked_ = verify_checkpoint(*checkpoint_, std::move(sums), collectives());  // collective; throws on damage
     std::vector<Vec3> at(block.size());
     for (std::size_t k = 0; k < block.size(); ++k) at[k] = {records[k].state.x[0], records[k].state.x[1], records[k].state.x[2]};
     return domain_->initial_bodies(scene_, block, at);
@@ -152,7 +156,7 @@ void Pipeline::restore_run_state(const nlohmann::json& run) {
     if (checker_ && run.contains("checks")) checker_->restore(run.at("checks"));
 }
 
-void Pipeline::write_checkpoint(const std::string& path) const {
+void Pipeline::write_checkpoint(const std::string& path) {
     const std::int64_t contacts = collectives().sum(static_cast<std::int64_t>(totals_.contacts));
     nlohmann::json run = {{"totals", {{"contacts", contacts}, {"max_penetration", totals_.max_penetration},
                                       {"penetration_sum", totals_.penetration_sum},
@@ -163,7 +167,7 @@ void Pipeline::write_checkpoint(const std::string& path) const {
                                  {"scene", scene_.name}, {"scene_file", scene_.source},
                                  {"scene_digest", hex64(scene_.digest)}, {"seed", scene_.seed},
                                  {"drand_seed", world_->drand_seed()}, {"solver", solver_->name()}, {"run", run}};
-    parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta);
+    checkpoint_cost_ += parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta);
 }
 
 const Substages* Pipeline::substages(Stage s) const {

@@ -97,12 +97,16 @@ public:
     nlohmann::json checks_result() const;
     const SolverBackend& solver() const { return *solver_; }
     // Collective: writes everything the next step depends on (io/checkpoint.hpp).
-    void write_checkpoint(const std::string& path) const;
+    void write_checkpoint(const std::string& path);
+    // What the checkpoints written so far cost.
+    const CheckpointCost& checkpoint_cost() const { return checkpoint_cost_; }
     // Restarted runs: bodies whose stored quaternion ODE could not be given
     // exactly (0 means the restart is bit for bit).
     std::int64_t inexact_restores() const { return inexact_; }
     // Empty when a restart continues the checkpointed run bit for bit, else why not.
     std::string restart_caveat() const;
+    // What a restart checked of its checkpoint (verify_checkpoint), or null.
+    const nlohmann::json& restart_checked() const { return checked_; }
     int first_step() const { return first_step_; }
     // Seconds of the collision run while the pipeline was built, when the first
     // step solved its contacts (that collision is then part of the steps'
@@ -129,6 +133,8 @@ private:
     std::vector<std::uint32_t> restart_bodies();
     void restore(const std::vector<std::uint32_t>& gids);
     std::unique_ptr<Checkpoint> checkpoint_;  // a restart's, until the steps begin
+    nlohmann::json checked_;                  // what the restart verified of it
+    CheckpointCost checkpoint_cost_;
     void restore_run_state(const nlohmann::json& run);
     void run_migrate();
     void run_forces();

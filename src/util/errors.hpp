@@ -22,6 +22,11 @@ struct SimulationError : std::runtime_error { using std::runtime_error::runtime_
 // checkpoint) cannot be opened or written. Exit code 4.
 struct OutputError : std::runtime_error { using std::runtime_error::runtime_error; };
 
+// A --restart checkpoint that cannot be used: a checksum differs, it is
+// truncated, or it is no checkpoint at all: names the file, the section and
+// both values. Exit code 8.
+struct CheckpointError : std::runtime_error { using std::runtime_error::runtime_error; };
+
 // A run refused because its memory estimate exceeds what the machine gives.
 // Exit code 6 (as std::bad_alloc).
 struct MemoryError : std::runtime_error { using std::runtime_error::runtime_error; };
