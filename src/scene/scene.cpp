@@ -79,7 +79,7 @@ int Scene::find_joint(const std::string& n) const {
 
 nlohmann::json solver_json(const SolverSpec& s) {
     return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
-            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}};
+            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}, {"substeps", s.substeps}};
 }
 
 }  // namespace parode

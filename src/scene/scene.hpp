@@ -131,6 +131,7 @@ struct SolverSpec {
     double contact_max_correcting_vel = 1e9;
     int max_contacts = 4;
     bool warm_start = true;  // project contact solver only
+    int substeps = 1;        // project contact solver only: substeps a step (contact_solver.hpp)
     bool auto_disable = false;
     double auto_disable_linear = 0.01;
     double auto_disable_angular = 0.01;

@@ -107,6 +107,7 @@ void read_solver(const Node& root, SolverSpec& s) {
     s.contact_max_correcting_vel = t.number("contact_max_correcting_vel", s.contact_max_correcting_vel, 0.0);
     s.max_contacts = static_cast<int>(t.integer("max_contacts", s.max_contacts, 1, 64));
     s.warm_start = t.boolean("warm_start", s.warm_start);
+    s.substeps = static_cast<int>(t.integer("substeps", s.substeps, 1, 64));
     if (!t.has("auto_disable")) return;
     const Node a = t.at("auto_disable");
     a.expect_keys(table_keys("solver.auto_disable"));

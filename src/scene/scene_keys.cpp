@@ -155,6 +155,8 @@ std::vector<SceneKey> build() {
              .means("fastest correction of a contact"),
          integer("max_contacts").in(1, 64).def(sv.max_contacts).means("contacts per geom pair"),
          boolean("warm_start", sv.warm_start).means("parode's contact solver starts from last step's impulses"),
+         integer("substeps").in(1, 64).def(sv.substeps)
+             .means("parode's contact solver: substeps a step, `iterations` sweeps each, one collision"),
          table("auto_disable").def("off").means("ODE's auto-disable (resting bodies sleep); writing the table turns it on")});
     add(out, "solver.auto_disable",
         {boolean("enabled", true).means("true once the table is written"),

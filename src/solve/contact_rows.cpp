@@ -20,16 +20,30 @@ using detail::mul33;
 // Target velocity of the normal row (ERP on the depth past the surface layer,
 // capped; bounce when closing faster than bounce_vel) given the closing
 // velocity J0 v, and the rows' CFMs (soft CFM, slip).
+// With substeps the contact's ERP and CFM are converted (substep_softness;
+// the slip CFMs are dampers and stay), and what the substeps recompute the
+// target from is kept.
 void targets(const ContactFrame& f, const RowInputs& in, double closing, double c[3], double cfm[3]) {
     const dSurfaceParameters& s = *in.surface;
-    const double erp = (s.mode & dContactSoftERP) ? s.soft_erp : in.erp;
+    double erp = (s.mode & dContactSoftERP) ? s.soft_erp : in.erp;
+    cfm[0] = (s.mode & dContactSoftCFM) ? s.soft_cfm : in.cfm;
+    double world_cfm = in.cfm;
+    if (in.substeps > 1) {
+        double unused = 0;
+        substep_softness(erp, cfm[0], in.substeps, erp, cfm[0]);
+        substep_softness(in.erp, in.cfm, in.substeps, unused, world_cfm);
+    }
     const double depth = std::max(f.depth - in.surface_layer, 0.0);
     c[0] = std::min(in.fps * erp * depth, in.max_correcting_vel);
     c[1] = c[2] = 0;
-    if ((s.mode & dContactBounce) && s.bounce_vel >= 0 && -closing > s.bounce_vel) c[0] = std::max(c[0], s.bounce * -closing);
-    cfm[0] = (s.mode & dContactSoftCFM) ? s.soft_cfm : in.cfm;
-    cfm[1] = (s.mode & dContactSlip1) ? s.slip1 : in.cfm;
-    cfm[2] = (s.mode & dContactSlip2) ? s.slip2 : in.cfm;
+    double bounce = 0;
+    if ((s.mode & dContactBounce) && s.bounce_vel >= 0 && -closing > s.bounce_vel) {
+        bounce = s.bounce * -closing;
+        c[0] = std::max(c[0], bounce);
+    }
+    cfm[1] = (s.mode & dContactSlip1) ? s.slip1 : world_cfm;
+    cfm[2] = (s.mode & dContactSlip2) ? s.slip2 : world_cfm;
+    if (in.kept) *in.kept = Kept{f.depth, erp, bounce};
 }
 
 // Jacobian of one contact row along `dir` at lever arms c1, c2 (ODE's layout).
@@ -49,9 +63,7 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     K.b1 = f.b1;
     K.b2 = f.b2;
     K.mu = in.surface->mu;
-    double t1[3], t2[3];
     for (int i = 0; i < 3; ++i) K.n[i] = f.n[i];
-    tangent_frame(K.n, t1, t2);
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
     // The effective masses are not stored: the relaxation computes them from
@@ -60,13 +72,29 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     if (two) closing -= dot3(f.n, in.vel[1]);
     double c[3], cfm[3];
     targets(f, in, closing, c, cfm);  // cfm: every row's is the solver's (SphereRowConstants)
+    sphere_rhs(K, in.tmp[0], two ? in.tmp[1] : nullptr, c[0], in.fps);
+    for (int r = 0; r < 3; ++r) K.lambda[r] = 0;
+}
+
+void sphere_rhs(SphereRow& K, const double* tmp1, const double* tmp2, double c0, double fps) {
+    double t1[3], t2[3];
+    tangent_frame(K.n, t1, t2);
     const double* lin[3] = {K.n, t1, t2};
     const double ang[3][3] = {{0, 0, 0}, {-t2[0], -t2[1], -t2[2]}, {t1[0], t1[1], t1[2]}};
+    const double c[3] = {c0, 0, 0};
     for (int r = 0; r < 3; ++r) {
-        double jt = dot3(lin[r], in.tmp[0]) + K.r1 * dot3(ang[r], in.tmp[0] + 3);
-        if (two) jt += K.r2 * dot3(ang[r], in.tmp[1] + 3) - dot3(lin[r], in.tmp[1]);
-        K.rhs[r] = c[r] * in.fps - jt;
-        K.lambda[r] = 0;
+        double jt = dot3(lin[r], tmp1) + K.r1 * dot3(ang[r], tmp1 + 3);
+        if (tmp2) jt += K.r2 * dot3(ang[r], tmp2 + 3) - dot3(lin[r], tmp2);
+        K.rhs[r] = c[r] * fps - jt;
+    }
+}
+
+void block_rhs(Block& K, const double* tmp1, const double* tmp2, double c0, double fps) {
+    for (int row = 0; row < K.rows; ++row) {
+        const double* J = K.J[row];  // scaled by Ad
+        double jt = dot3(J, tmp1) + dot3(J + 3, tmp1 + 3);
+        if (tmp2) jt += dot3(J + 6, tmp2) + dot3(J + 9, tmp2 + 3);
+        K.rhs[row] = K.ad[row] * ((row == 0 ? c0 : 0.0) * fps) - jt;
     }
 }
 
@@ -86,6 +114,7 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
         jacobian_row(t1, f.c1, f.c2, K.J[1]);
         jacobian_row(t2, f.c1, f.c2, K.J[2]);
     }
+    for (int i = 0; i < 3; ++i) K.n[i] = f.n[i];
     for (int row = 0; row < K.rows; ++row) {
         double* J = K.J[row];
         double* iMJ = K.iMJ[row];
@@ -102,6 +131,7 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
         const double cf = cfm[row] * in.fps;
         const double Ad = in.sor_w / (sum + cf);
         for (int i = 0; i < 12; ++i) J[i] *= Ad;
+        K.ad[row] = Ad;
         K.rhs[row] = rhs * Ad;
         K.cfm[row] = cf * Ad;
         K.lambda[row] = 0;

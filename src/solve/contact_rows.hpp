@@ -62,6 +62,7 @@ struct Block {
     double J[3][12];    // scaled by Ad
     double iMJ[3][12];  // inv(M) J^T, unscaled
     double rhs[3], cfm[3], lambda[3];
+    double n[3], ad[3];  // the normal (into body 1), each row's Ad (substeps recompute rhs)
 };
 
 // A contact as the builder sees it: bodies, normal into body 1 (ODE's
@@ -82,7 +83,40 @@ struct RowInputs {
     double invm[2], invi[2];  // inverse mass, scalar inverse inertia (0: see invI)
     const dSurfaceParameters* surface;
     double fps, erp, cfm, surface_layer, max_correcting_vel, sor_w;
+    int substeps;          // > 1: fps is a substep's, ERP and CFM converted (substep_softness)
+    struct Kept* kept;     // null, or where the build keeps what substeps recompute rhs from
 };
+
+// What a row's substeps recompute its targets from: the depth at the step's
+// start, the contact's ERP at the substep, and the bounce target (0: none).
+struct Kept {
+    double depth, erp, bounce;
+};
+
+// The ERP and CFM at a substep dt / S of a contact whose ERP and CFM are
+// given at dt: the same spring and damper (ODE's ERP = h kp / (h kp + kd),
+// CFM = 1 / (h kp + kd)); a rigid contact (CFM 0) keeps the share of its depth
+// corrected over the whole step.
+inline void substep_softness(double erp, double cfm, int substeps, double& erp_s, double& cfm_s) {
+    if (substeps <= 1) {
+        erp_s = erp;
+        cfm_s = cfm;
+    } else if (cfm > 0) {
+        const double hkp = erp / substeps, kd = 1.0 - erp;  // h kp and kd, both times CFM
+        erp_s = hkp / (hkp + kd);
+        cfm_s = cfm / (hkp + kd);
+    } else {
+        erp_s = 1.0 - std::pow(1.0 - erp, 1.0 / substeps);
+        cfm_s = 0;
+    }
+}
+
+// The normal row's target velocity at a depth (ERP past the surface layer,
+// capped, at least the bounce target).
+inline double normal_target(double depth, const Kept& k, const RowInputs& in) {
+    const double c = std::min(in.fps * k.erp * std::max(depth - in.surface_layer, 0.0), in.max_correcting_vel);
+    return std::max(c, k.bounce);
+}
 
 void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K);
 // The row's effective masses: SOR w / (J inv(M) J^T + cfm) of the normal row
@@ -90,6 +124,10 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K);
 void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
                        double& ad_n, double& ad_t);
 void build_block(const ContactFrame& f, const RowInputs& in, Block& K);
+// The right-hand sides for velocity terms tmp = v / h + inv(M) f_ext (tmp2
+// null when static) and the normal row's target c0 (the friction rows' is 0).
+void sphere_rhs(SphereRow& K, const double* tmp1, const double* tmp2, double c0, double fps);
+void block_rhs(Block& K, const double* tmp1, const double* tmp2, double c0, double fps);
 
 // Impulses in, velocity corrections out (warm start).
 void apply_impulses(const SphereRow& K, BodyRow* bodies);

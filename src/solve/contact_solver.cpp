@@ -61,7 +61,8 @@ bool sphere_or_plane(World::GeomShape s) { return s == World::GeomShape::Sphere 
 
 // A body's contacts are owned by cells within 2 r_max of it: with cells of
 // 4 r_max they span at most two cells per axis, of different parity.
-ContactSolver::ContactSolver(const Scene& scene, Execution& exec) : scene_(scene), exec_(exec), cells_(scene) {}
+ContactSolver::ContactSolver(const Scene& scene, Execution& exec)
+    : scene_(scene), exec_(exec), cells_(scene), substeps_(scene.solver.substeps), h_(scene.dt / scene.solver.substeps) {}
 
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
@@ -220,7 +221,9 @@ void ContactSolver::prefetch_row(std::size_t p) const {
 
 // The same bits as build_row's: CFM times 1 / dt.
 SphereRowConstants ContactSolver::row_constants() const {
-    return SphereRowConstants{scene_.solver.sor_w, scene_.solver.cfm * (1.0 / scene_.dt)};
+    double erp = 0, cfm = 0;
+    substep_softness(scene_.solver.erp, scene_.solver.cfm, substeps_, erp, cfm);
+    return SphereRowConstants{scene_.solver.sor_w, cfm * (1.0 / h_)};
 }
 
 void ContactSolver::build_row(std::size_t k) {
@@ -228,7 +231,7 @@ void ContactSolver::build_row(std::size_t k) {
     const ContactRecord& r = contacts_->items()[k];
     const ContactFrame f = frame(r, k);
     const SolverSpec& sv = scene_.solver;
-    const double fps = 1.0 / scene_.dt;
+    const double fps = 1.0 / h_;
     const std::uint32_t locals[2] = {owner_[k], other_[k]};
     double tmp[2][6], diag[2][9];
     RowInputs in;  // not value-initialised: that cleared 136 bytes a contact
@@ -250,6 +253,8 @@ void ContactSolver::build_row(std::size_t k) {
     in.surface_layer = sv.contact_surface_layer;
     in.max_correcting_vel = sv.contact_max_correcting_vel;
     in.sor_w = sv.sor_w;
+    in.substeps = substeps_;
+    in.kept = substeps_ > 1 ? &kept_[p] : nullptr;
     double* lambda = nullptr;
     SphereRow& K = rows_[p];
     if (block_of_[k] == kNone) {
@@ -307,6 +312,7 @@ void ContactSolver::build_phase() {
     layout_.build(li, loops());
     fill_body_rows();
     rows_.resize(nc);
+    if (substeps_ > 1) kept_.resize(nc);
     for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
             if (k + kPrefetchAhead < k1) prefetch_row(layout_.position(k + kPrefetchAhead));
@@ -469,9 +475,9 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
     if (world_->ghost(i)) return true;  // its owner integrates it
     BodyData& B = bodies_[i];
     dBodyID b = world_->body(i);
-    const double h = scene_.dt;
+    const double h = h_;
     const double* fc = hot_[layout_.slot()[i]].fc;
-    const dReal* q = dBodyGetQuaternion(b);
+    const double* q = substeps_ > 1 ? motion_[i].q : dBodyGetQuaternion(b);
     double v[6];
     for (int k = 0; k < 6; ++k) v[k] = B.v[k] + h * (B.acc[k] + fc[k]);
     const double* w = v + 3;
@@ -483,7 +489,11 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
         len += nq[k] * nq[k];
     }
     len = 1.0 / std::sqrt(len);
-    for (int k = 0; k < 3; ++k) B.x[k] += h * v[k];
+    if (substeps_ > 1) {
+        for (int k = 0; k < 3; ++k) B.x[k] += motion_[i].dx[k] + h * v[k];
+    } else {
+        for (int k = 0; k < 3; ++k) B.x[k] += h * v[k];
+    }
     for (int k = 0; k < 4; ++k) B.acc[k] = nq[k] * len;
     for (int k = 0; k < 6; ++k) B.v[k] = v[k];
     // The guard's speed (run/guard.cpp), on the same doubles ODE will hold.
@@ -519,8 +529,21 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
         SubstageTimer t(times_, "sweeps");
         sweep(iterations(), false);
     }
+    for (int s = 1; s < substeps_; ++s) {
+        {
+            SubstageTimer t(times_, "integrate");
+            advance_bodies(s);
+            refresh_rows();
+        }
+        SubstageTimer t(times_, "sweeps");
+        sweep(iterations(), false);
+    }
+    integrate_phase(world);
+}
+
+void ContactSolver::integrate_phase(World& world) {
     SubstageTimer t(times_, "integrate");
-    const std::size_t nc = contacts.size();
+    const std::size_t nc = contacts_->size();
     scratch_resize(previous_, nc);  // last step's impulses were read by build_row
     for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {

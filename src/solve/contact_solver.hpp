@@ -18,6 +18,13 @@
 // Trade-off: a fixed spatial order instead of QuickStep's canonical order with
 // random reshuffles: results independent of the thread count, and with warm
 // starting at least QuickStep's accuracy per iteration on the classic scenes.
+// With solver.substeps = S > 1 the step is cut into S substeps of dt / S on
+// one collision: each runs `iterations` sweeps, then every body (ghosts too,
+// with the same arithmetic as on its owner) moves by its substep's velocity,
+// and each row's right-hand side is recomputed for the new velocities and
+// the depth its bodies' displacement along the normal leaves; the impulses
+// carry over from substep to substep (substeps.cpp). ERP and CFM, given for
+// dt, become the same spring and damper at dt / S (substep_softness).
 // No damping, no auto-disable: such scenes stay on ODE's stepper (solver.cpp).
 #pragma once
 #include <array>
@@ -122,6 +129,7 @@ protected:
     virtual void sweep(int passes, bool warm);
     const SweepLayout& layout() const { return layout_; }
     int iterations() const { return scene_.solver.iterations; }
+    int substeps() const { return substeps_; }
     std::size_t contact_count() const { return contacts_ ? contacts_->size() : 0; }
     // The halves of colour c's exchange (serially: one thread talks).
     void post_after_boundary(int c) {
@@ -158,6 +166,13 @@ private:
     void build_row(std::size_t k);
     void plan_exchange();
     bool integrate_body(World& world, std::size_t i, double& max_speed);
+    void integrate_phase(World& world);
+    // Substeps (substeps.cpp): every local body's velocity and displacement
+    // after substep `s` (its velocity terms from the sweeps' corrections), then
+    // every row's right-hand side for the next substep.
+    void advance_bodies(int s);
+    void refresh_rows();
+    void refresh_row(std::size_t p, const RowInputs& at);
     void remember(std::size_t k);
     void commit(World& world) const;
     void build_phase();
@@ -166,9 +181,19 @@ private:
     bool only_sphere_rows() const;
     const double* inv_inertia(std::uint32_t local, double* diag) const;
 
+    // Per local body during substeps: its displacement since the step began
+    // and its quaternion.
+    struct Motion {
+        double dx[3], q[4];
+    };
+
     const Scene& scene_;
     Execution& exec_;
     CellSpace cells_;
+    const int substeps_;                             // solver.substeps
+    const double h_;                                 // dt / substeps_
+    std::vector<Kept> kept_;                         // per position, with substeps
+    std::vector<Motion> motion_;                     // per local body, with substeps
     const World* world_ = nullptr;
     const ContactBuffer* contacts_ = nullptr;
     bool general_only_ = false;
