@@ -19,6 +19,26 @@ TEST_P(Ranks, SameStateHashAsOneProcess) {
 
 INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-tennis"));
 
+// The solver's substeps advance ghosts as their owners advance them: the same
+// state hash for 1 and 2 threads and 2 and 3 processes, and not the hash
+// without substeps (the setting took effect).
+TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
+    const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 150 --collide grid"
+                               " --solver parallel -q --check-invariants 1 --set catoms.count=2000"
+                               " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
+    const std::string sub = common + " --set solver.substeps=4 --set solver.iterations=3";
+    ASSERT_EQ(run(0, common + " --threads 1 --report " + path("plain.json")).rc, 0);
+    ASSERT_EQ(run(0, sub + " --threads 1 --report " + path("ref.json")).rc, 0);
+    const nlohmann::json ref = report("ref.json");
+    EXPECT_NE(ref["state_hash"], report("plain.json")["state_hash"]);
+    for (const Case c : {Case{"", 0, 2}, Case{"", 2, 1}, Case{"", 3, 1}}) {
+        const std::string name = "sub" + std::to_string(c.ranks) + "x" + std::to_string(c.threads) + ".json";
+        const Result r = run(c.ranks, sub + " --threads " + std::to_string(c.threads) + " --report " + path(name));
+        ASSERT_EQ(r.rc, 0) << r.err;
+        EXPECT_EQ(report(name)["state_hash"], ref["state_hash"]) << c.ranks << " ranks x " << c.threads << " threads";
+    }
+}
+
 // A checkpoint written by 2 processes restarts on 1, 2 and 3 processes with
 // the hash of the uninterrupted run; each process builds the bodies it will
 // own from the checkpoint's positions, so none moves at setup.

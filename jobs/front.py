@@ -1,0 +1,147 @@
+#!/usr/bin/env python3
+"""Runs for the speed-against-error front of the contact solver's settings,
+with error measures that rank configurations where the end state is chaotic.
+
+Three kinds of runs, all with parode's contact solver (`--solver parallel`):
+- ensembles: every configuration on SEEDS seeds (scene.seed moves the jitter of
+  the prism), and the same seeds with a converged reference configuration
+  (dt / 4, 100 iterations): their trajectories give the ensemble observables
+  (centre-of-mass height, horizontal spread, contacts per catom, kinetic
+  energy) that analysis/front.py compares with confidence intervals;
+- short horizons: seed 1 of every configuration against a fine reference
+  (dt / 8, 200 iterations) with `--reference`, whose report holds the RMS
+  position error at every observed step; a second fine reference started
+  1e-9 m away (the jitter scaled by 1 + 2e-9 / radius: every catom moves by
+  less than 1e-9 m) measures the pile's own divergence time, and the converged
+  reference against the fine one shows how far two references agree;
+- cost: the solve stage per step at --cost-counts catoms (default 64,000) of
+  every configuration on 1 and 2 threads, the configurations interleaved in
+  REPEATS rounds; the 1-minute load average is recorded before every timed
+  run, and runs started above --max-load are marked `disturbed`.
+
+Output: OUT/machine.json, OUT/ensemble/<config>.seed<k>.json (+ .traj, not
+meant to be committed: --traj), OUT/horizon/<config>.json, OUT/cost/<config>.t<T>.r<R>.json.
+Existing reports are reused unless --force.
+
+Usage: python3 jobs/front.py [--out results/front] [--scene jobs/scenes/tennis.toml]
+       [--count 1000] [--duration 5] [--seeds 8] [--cost-counts 64000] [--repeats 3]
+Trade-off: a handful of configurations around the settings that matter
+(substeps, iterations, dt) rather than a grid, so that 8 seeds fit a small machine.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from sweep import machine  # noqa: E402  (host, CPU, commit, binary hash)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DT = 0.005
+
+# name -> --set values, around the scene's defaults (dt 5 ms, 20 iterations).
+CONFIGS = {
+    "default": [],
+    "it10": ["solver.iterations=10"],
+    "it40": ["solver.iterations=40"],
+    "dt2.5ms": [f"scene.dt={DT / 2:g}"],
+    "dt2.5ms-it10": [f"scene.dt={DT / 2:g}", "solver.iterations=10"],
+    "sub2-it5": ["solver.substeps=2", "solver.iterations=5"],
+    "sub2-it10": ["solver.substeps=2", "solver.iterations=10"],
+    "sub4-it2": ["solver.substeps=4", "solver.iterations=2"],
+    "sub4-it3": ["solver.substeps=4", "solver.iterations=3"],
+    "sub4-it5": ["solver.substeps=4", "solver.iterations=5"],
+    "sub8-it1": ["solver.substeps=8", "solver.iterations=1"],
+    "sub8-it2": ["solver.substeps=8", "solver.iterations=2"],
+}
+CONVERGED = [f"scene.dt={DT / 4:g}", "solver.iterations=100"]
+FINE = [f"scene.dt={DT / 8:g}", "solver.iterations=200"]
+
+
+def parode_run(args, sets, report, extra=(), threads=1):
+    if os.path.exists(report) and not args.force:
+        return
+    os.makedirs(os.path.dirname(report), exist_ok=True)
+    cmd = [args.parode, "run", args.scene, "--collide", "grid", "--solver", "parallel", "--threads", str(threads),
+           "-q", "--report", report] + list(extra)
+    for s in sets:
+        cmd += ["--set", s]
+    print(" ".join(os.path.relpath(c, ROOT) if c.startswith(ROOT) else c for c in cmd), flush=True)
+    subprocess.run(cmd, check=True, timeout=args.timeout)
+
+
+def ensembles(args):
+    common = [f"catoms.count={args.count}"]
+    length = ["--duration", str(args.duration)]
+    for seed in range(1, args.seeds + 1):
+        for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED)]:
+            traj = os.path.join(args.traj, f"{name}.seed{seed}.traj")
+            os.makedirs(args.traj, exist_ok=True)
+            parode_run(args, common + sets + [f"scene.seed={seed}"],
+                       os.path.join(args.out, "ensemble", f"{name}.seed{seed}.json"), length + ["--trajectory", traj])
+
+
+def horizons(args):
+    common = [f"catoms.count={args.count}", "scene.seed=1"]
+    length = ["--duration", str(args.horizon)]
+    fine = os.path.join(args.traj, "fine.traj")
+    parode_run(args, common + FINE, os.path.join(args.out, "horizon", "fine.json"), length + ["--trajectory", fine])
+    nudge = 0.01 * (1 + 2e-9 / 0.5)  # tennis: radius 0.5 m, jitter 1 % of it
+    parode_run(args, common + FINE + [f"catoms.jitter={nudge!r}"], os.path.join(args.out, "horizon", "fine-nudged.json"),
+               length + ["--reference", fine])
+    for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED)]:
+        parode_run(args, common + sets, os.path.join(args.out, "horizon", f"{name}.json"), length + ["--reference", fine])
+
+
+def costs(args):
+    for count in args.cost_counts:
+        steps = max(3, int(2e6 // count))
+        for r in range(1, args.repeats + 1):
+            for threads in (1, 2):
+                for name, sets in CONFIGS.items():
+                    if args.cost_configs and name not in args.cost_configs:
+                        continue
+                    dt = next((float(s.split("=")[1]) for s in sets if s.startswith("scene.dt=")), DT)
+                    n = int(round(steps * DT / dt))  # the same simulated time
+                    report = os.path.join(args.out, "cost", f"{name}.n{count}.t{threads}.r{r}.json")
+                    if os.path.exists(report) and not args.force:
+                        continue
+                    load = os.getloadavg()[0]
+                    parode_run(args, [f"catoms.count={count}"] + sets, report, ["--steps", str(n)], threads)
+                    with open(report) as f:
+                        rep = json.load(f)
+                    rep["front"] = {"load_before": load, "disturbed": load > args.max_load, "config": name,
+                                    "count": count, "threads": threads, "round": r}
+                    with open(report, "w") as f:
+                        json.dump(rep, f)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "front"))
+    ap.add_argument("--traj", default=None, help="trajectories (default OUT-traj)")
+    ap.add_argument("--scene", default=os.path.join(ROOT, "jobs", "scenes", "tennis.toml"))
+    ap.add_argument("--parode", default=os.path.join(ROOT, "build", "ci", "parode"))
+    ap.add_argument("--count", type=int, default=1000)
+    ap.add_argument("--duration", type=float, default=5.0)
+    ap.add_argument("--horizon", type=float, default=2.0, help="simulated seconds of the short-horizon runs")
+    ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--cost-counts", type=int, nargs="*", default=[64000])
+    ap.add_argument("--cost-configs", nargs="*", help="time only these configurations")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--max-load", type=float, default=0.5, help="1-minute load above which a timed run is disturbed")
+    ap.add_argument("--timeout", type=float, default=3600)
+    ap.add_argument("--only", choices=["ensembles", "horizons", "costs"], nargs="*")
+    ap.add_argument("--force", action="store_true")
+    args = ap.parse_args()
+    args.traj = args.traj or args.out.rstrip("/") + "-traj"
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "machine.json"), "w") as f:
+        json.dump(machine(args.parode), f, indent=1)
+    for part in args.only or ["ensembles", "horizons", "costs"]:
+        {"ensembles": ensembles, "horizons": horizons, "costs": costs}[part](args)
+
+
+if __name__ == "__main__":
+    main()
