@@ -16,8 +16,9 @@ Three kinds of runs, all with parode's contact solver (`--solver parallel`):
   reference against the fine one shows how far two references agree;
 - cost: the solve stage per step at --cost-counts catoms (default 64,000) of
   every configuration on 1 and 2 threads, the configurations interleaved in
-  REPEATS rounds; the 1-minute load average is recorded before every timed
-  run, and runs started above --max-load are marked `disturbed`.
+  REPEATS rounds; the cores busy with other work are measured for 0.5 s
+  before every timed run (/proc/stat), and runs started above --max-load are
+  marked `disturbed`.
 
 Output: OUT/machine.json, OUT/ensemble/<config>.seed<k>.json (+ .traj, not
 meant to be committed: --traj), OUT/horizon/<config>.json, OUT/cost/<config>.t<T>.r<R>.json.
@@ -33,6 +34,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep import machine  # noqa: E402  (host, CPU, commit, binary hash)
@@ -43,6 +45,7 @@ DT = 0.005
 # name -> --set values, around the scene's defaults (dt 5 ms, 20 iterations).
 CONFIGS = {
     "default": [],
+    "it5": ["solver.iterations=5"],
     "it10": ["solver.iterations=10"],
     "it40": ["solver.iterations=40"],
     "dt2.5ms": [f"scene.dt={DT / 2:g}"],
@@ -55,8 +58,25 @@ CONFIGS = {
     "sub8-it1": ["solver.substeps=8", "solver.iterations=1"],
     "sub8-it2": ["solver.substeps=8", "solver.iterations=2"],
 }
-CONVERGED = [f"scene.dt={DT / 4:g}", "solver.iterations=100"]
-FINE = [f"scene.dt={DT / 8:g}", "solver.iterations=200"]
+
+
+def same_spring(erp, cfm, s):
+    """ERP and CFM at dt / s of the contact spring and damper that ERP and CFM
+    define at dt (ERP = h kp / (h kp + kd), CFM = 1 / (h kp + kd)), as
+    solver.substeps converts them (src/solve/contact_rows.hpp)."""
+    a, b = erp / s, 1 - erp
+    return [f"solver.erp={a / (a + b)!r}", f"solver.cfm={cfm / (a + b)!r}"]
+
+
+ERP, CFM = 0.2, 1e-5  # tennis.toml
+# References: converged in dt and iterations with the scene's contact spring
+# (ERP and CFM converted to the shorter step), and, as the "converged" of
+# earlier studies, with the same ERP and CFM at dt / 4: a contact 4 x stiffer.
+CONVERGED = [f"scene.dt={DT / 4:g}", "solver.iterations=100"] + same_spring(ERP, CFM, 4)
+STIFF = [f"scene.dt={DT / 4:g}", "solver.iterations=100"]
+FINE = [f"scene.dt={DT / 8:g}", "solver.iterations=200"] + same_spring(ERP, CFM, 8)
+# 4 substeps with STIFF's contact: ERP 0.5 and CFM 6.25e-6 at dt are ERP 0.2 and CFM 1e-5 at dt / 4.
+CONFIGS["sub4-it3-stiff"] = ["solver.substeps=4", "solver.iterations=3", "solver.erp=0.5", "solver.cfm=6.25e-06"]
 
 
 def parode_run(args, sets, report, extra=(), threads=1):
@@ -75,7 +95,7 @@ def ensembles(args):
     common = [f"catoms.count={args.count}"]
     length = ["--duration", str(args.duration)]
     for seed in range(1, args.seeds + 1):
-        for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED)]:
+        for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED), ("stiff", STIFF)]:
             traj = os.path.join(args.traj, f"{name}.seed{seed}.traj")
             os.makedirs(args.traj, exist_ok=True)
             parode_run(args, common + sets + [f"scene.seed={seed}"],
@@ -90,8 +110,20 @@ def horizons(args):
     nudge = 0.01 * (1 + 2e-9 / 0.5)  # tennis: radius 0.5 m, jitter 1 % of it
     parode_run(args, common + FINE + [f"catoms.jitter={nudge!r}"], os.path.join(args.out, "horizon", "fine-nudged.json"),
                length + ["--reference", fine])
-    for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED)]:
+    for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED), ("stiff", STIFF)]:
         parode_run(args, common + sets, os.path.join(args.out, "horizon", f"{name}.json"), length + ["--reference", fine])
+
+
+def busy_cores(seconds=0.5):
+    """Cores busy with other work while this script waits between runs (from /proc/stat)."""
+    def sample():
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return sum(v) - v[3] - v[4], sum(v)  # busy (all but idle and iowait), total
+    b0, t0 = sample()
+    time.sleep(seconds)
+    b1, t1 = sample()
+    return (b1 - b0) / max(t1 - t0, 1) * os.cpu_count()
 
 
 def costs(args):
@@ -107,11 +139,11 @@ def costs(args):
                     report = os.path.join(args.out, "cost", f"{name}.n{count}.t{threads}.r{r}.json")
                     if os.path.exists(report) and not args.force:
                         continue
-                    load = os.getloadavg()[0]
+                    load = busy_cores()
                     parode_run(args, [f"catoms.count={count}"] + sets, report, ["--steps", str(n)], threads)
                     with open(report) as f:
                         rep = json.load(f)
-                    rep["front"] = {"load_before": load, "disturbed": load > args.max_load, "config": name,
+                    rep["front"] = {"busy_cores_before": load, "disturbed": load > args.max_load, "config": name,
                                     "count": count, "threads": threads, "round": r}
                     with open(report, "w") as f:
                         json.dump(rep, f)
@@ -130,7 +162,8 @@ def main():
     ap.add_argument("--cost-counts", type=int, nargs="*", default=[64000])
     ap.add_argument("--cost-configs", nargs="*", help="time only these configurations")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--max-load", type=float, default=0.5, help="1-minute load above which a timed run is disturbed")
+    ap.add_argument("--max-load", type=float, default=0.3,
+                    help="cores busy with other work (measured for 0.5 s before each timed run) that mark it disturbed")
     ap.add_argument("--timeout", type=float, default=3600)
     ap.add_argument("--only", choices=["ensembles", "horizons", "costs"], nargs="*")
     ap.add_argument("--force", action="store_true")

@@ -23,7 +23,7 @@ INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-t
 // state hash for 1 and 2 threads and 2 and 3 processes, and not the hash
 // without substeps (the setting took effect).
 TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
-    const std::string common = " run " + kSource + "/jobs/scenes/magnetic-tennis.toml --steps 150 --collide grid"
+    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --steps 150 --collide grid"
                                " --solver parallel -q --check-invariants 1 --set catoms.count=2000"
                                " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
     const std::string sub = common + " --set solver.substeps=4 --set solver.iterations=3";

@@ -355,6 +355,12 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     const std::size_t hand_written = sc.bodies.size();
     read_catoms(root, catoms, sc);
     read_magnets(root, sc);
+    // Substeps hold the force passes' forces over the step: explicit stiff
+    // springs such as the magnets then gain energy (docs/performance/speed-vs-error.md).
+    if (sc.solver.substeps > 1 && sc.magnets.enabled && sc.magnets.strength > 0) {
+        root.at("solver").fail("substeps", "1 while [magnets] are on (the magnet forces are computed once a step; held "
+                                           "over substeps they pump energy into the lattice)");
+    }
     if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     limits::check_mass_ratio(root, sc, hand_written);
     limits::check_catom_extent(root, sc, hand_written);

@@ -148,6 +148,7 @@ void ContactSolver::fill_body_rows() {
             std::fill(H.fc, H.fc + 6, 0.0);
             H.invm = B.invm;
             H.invi = B.invi;
+            if (substeps_ > 1) start_motion(s, B);
         }
     });
 }
@@ -310,9 +311,13 @@ void ContactSolver::build_phase() {
         li.shared = shared_.data();
     }
     layout_.build(li, loops());
+    if (substeps_ > 1) {
+        motion_.resize(layout_.order().size());
+        reach_.resize(layout_.order().size());
+        kept_.resize(nc);
+    }
     fill_body_rows();
     rows_.resize(nc);
-    if (substeps_ > 1) kept_.resize(nc);
     for_ranges(loops(), nc, kGrain, [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k) {
             if (k + kPrefetchAhead < k1) prefetch_row(layout_.position(k + kPrefetchAhead));
@@ -477,20 +482,32 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
     dBodyID b = world_->body(i);
     const double h = h_;
     const double* fc = hot_[layout_.slot()[i]].fc;
-    const double* q = substeps_ > 1 ? motion_[i].q : dBodyGetQuaternion(b);
+    const Motion* m = substeps_ > 1 ? &motion_[layout_.slot()[i]] : nullptr;
+    const dReal* q = dBodyGetQuaternion(b);
+    const double* v0 = m ? m->v : B.v;
     double v[6];
-    for (int k = 0; k < 6; ++k) v[k] = B.v[k] + h * (B.acc[k] + fc[k]);
+    for (int k = 0; k < 6; ++k) v[k] = v0[k] + h * (B.acc[k] + fc[k]);
+    // The turn: h w, or with substeps the sum of every substep's h w (the
+    // mean angular velocity over the step), applied once.
+    double turn[3];
     const double* w = v + 3;
+    double scale = h;
+    if (m) {
+        for (int k = 0; k < 3; ++k) turn[k] = m->turn[k] + h * w[k];
+        w = turn;
+        scale = 1.0;
+    }
     double dq[4] = {0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3]), 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2]),
                     0.5 * (-w[0] * q[3] + w[1] * q[0] + w[2] * q[1]), 0.5 * (w[0] * q[2] - w[1] * q[1] + w[2] * q[0])};
     double nq[4], len = 0;
     for (int k = 0; k < 4; ++k) {
-        nq[k] = q[k] + h * dq[k];
+        nq[k] = q[k] + scale * dq[k];
         len += nq[k] * nq[k];
     }
     len = 1.0 / std::sqrt(len);
     if (substeps_ > 1) {
-        for (int k = 0; k < 3; ++k) B.x[k] += motion_[i].dx[k] + h * v[k];
+        const double* dx = reach_[layout_.slot()[i]].dx;
+        for (int k = 0; k < 3; ++k) B.x[k] += dx[k] + h * v[k];
     } else {
         for (int k = 0; k < 3; ++k) B.x[k] += h * v[k];
     }
@@ -532,7 +549,7 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
     for (int s = 1; s < substeps_; ++s) {
         {
             SubstageTimer t(times_, "integrate");
-            advance_bodies(s);
+            advance_bodies();
             refresh_rows();
         }
         SubstageTimer t(times_, "sweeps");

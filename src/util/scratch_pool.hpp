@@ -22,7 +22,7 @@ namespace parode {
 
 class ScratchPool {
 public:
-    static constexpr int kSlots = 3;
+    static constexpr int kSlots = 5;
     // At least `bytes` bytes of slot `slot`, 64-byte aligned; contents undefined.
     void* take(int slot, std::size_t bytes) {
         Slot& s = slots_[static_cast<std::size_t>(slot)];
@@ -83,6 +83,6 @@ private:
 
 // The slots of the two users the pipeline pairs.
 enum ScratchSlot : int { kSlotGeoms = 0, kSlotEntries = 1, kSlotPrims = 2 };  // collider
-enum SolverSlot : int { kSlotRows = 0, kSlotBodies = 1, kSlotBodyRows = 2 };  // contact solver
+enum SolverSlot : int { kSlotRows = 0, kSlotBodies = 1, kSlotBodyRows = 2, kSlotMotion = 3, kSlotReach = 4 };  // contact solver (motion, reach: substeps)
 
 }  // namespace parode
