@@ -138,7 +138,23 @@ def costs(results):
     return rows
 
 
-def write(out, runs, div, herr, at, cost):
+def exact_table(results):
+    """RESULTS/exact.json (jobs/front.py --only exact) as a table, if there."""
+    try:
+        with open(os.path.join(results, "exact.json")) as f:
+            ex = json.load(f)
+    except OSError:
+        return []
+    keys = list(next(iter(ex.values())).keys())
+    lines = ["", "Exact invariants (tests/test_exact.py): measured over analytic, 1 is exact; the box at 20 deg must "
+             "stick (metres moved); the momentum error of the head-on collision in kg m/s.", "",
+             "| configuration | " + " | ".join(keys) + " |", "|---" * (len(keys) + 1) + "|"]
+    for name, row in ex.items():
+        lines.append(f"| {name} | " + " | ".join(f"{row[k]:.4g}" for k in keys) + " |")
+    return lines
+
+
+def write(out, runs, div, herr, at, cost, results):
     ref = runs["converged"]
     seeds = sorted(ref)
     keys = list(next(iter(ref.values())).keys())
@@ -172,6 +188,7 @@ def write(out, runs, div, herr, at, cost):
             s = statistics.median(e["solve"])
             lines.append(f"| {name} | {count} | {th} | {s:.1f} | {statistics.median(e['step']):.1f} | "
                          f"{s / statistics.median(base):.3f} | {len(e['solve'])} ({e['disturbed']}) |")
+    lines += exact_table(results)
     with open(os.path.join(out, "front.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
@@ -220,7 +237,7 @@ def main():
     at = (div / 4, div / 2)
     herr = horizon_errors(a.results, at)
     cost = costs(a.results)
-    write(out, runs, div, herr, at, cost)
+    write(out, runs, div, herr, at, cost, a.results)
     plot(out, runs, herr, cost, at)
 
 

@@ -361,6 +361,12 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
         root.at("solver").fail("substeps", "1 while [magnets] are on (the magnet forces are computed once a step; held "
                                            "over substeps they pump energy into the lattice)");
     }
+    // Fewer sweeps a substep leave the carried-over impulses to overshoot the
+    // bounce target: energy grows (measured: docs/performance/speed-vs-error.md).
+    if (sc.solver.substeps > 1 && sc.solver.iterations < 3) {
+        root.at("solver").fail("iterations", "at least 3 when solver.substeps > 1 (with fewer sweeps a substep a "
+                                             "bounce gains energy)");
+    }
     if (sc.body_count() == 0) root.fail_here("the scene has no bodies (add [[bodies]] or [catoms])");
     limits::check_mass_ratio(root, sc, hand_written);
     limits::check_catom_extent(root, sc, hand_written);
