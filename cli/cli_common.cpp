@@ -208,6 +208,8 @@ int guarded(const std::function<int()>& action) {
         return report_failure(kExitSimulation, std::string("simulation failed: ") + e.what());
     } catch (const CheckpointError& e) {
         return report_failure(kExitCheckpoint, std::string("cannot restart: ") + e.what());
+    } catch (const ProgramError& e) {
+        return report_failure(kExitProgram, std::string("catom program failed: ") + e.what());
     } catch (const OutputError& e) {
         return report_failure(kExitOutput, std::string("cannot write output: ") + e.what(), false);
     } catch (const MemoryError& e) {

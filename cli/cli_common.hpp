@@ -27,6 +27,7 @@ constexpr int kExitChecks = 5;        // a [checks] criterion failed
 constexpr int kExitMemory = 6;        // MemoryError (refused by the estimate), std::bad_alloc
 constexpr int kExitInterrupted = 7;   // SIGTERM / SIGINT: checkpoint written, report marked interrupted
 constexpr int kExitCheckpoint = 8;    // CheckpointError: the --restart checkpoint is damaged
+constexpr int kExitProgram = 9;       // ProgramError: a catom program failed
 constexpr int kExitInternal = 70;     // any other exception: a bug
 
 constexpr int kMaxThreads = 1024;

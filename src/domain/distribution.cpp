@@ -13,6 +13,7 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
     const std::string one = "; run it as one process (without mpirun), with threads";
     if (!sc.joints.empty()) return refuse(why + "a contact-only scene, and this one has joints" + one);
     if (sc.controller.enabled) return refuse(why + "a contact-only scene, and this one has a [controller]" + one);
+    if (sc.program.enabled) return refuse(why + "no [program] (catom programs run on one process for now)" + one);
     if (sc.solver.auto_disable) return refuse(why + "solver.auto_disable off (sleeping bodies need ODE's islands)" + one);
     if (solver != "parallel" && solver != "pgs") {
         return refuse("--solver " + solver + " runs ODE's stepper, which needs every body in one process; "

@@ -36,7 +36,7 @@ void MagnetField::find_members(const World& world) {
     radius_.clear();
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         const std::uint32_t gid = world.gid(i);
-        if (!scene_.body_magnets(gid)) continue;
+        if (!scene_.body_magnets(gid) || world.magnets_switched_off(gid)) continue;
         if (!world.ghost(i)) targets_.push_back(static_cast<std::uint32_t>(members_.size()));
         members_.push_back(static_cast<std::uint32_t>(i));
         radius_.push_back(gid < scene_.bodies.size() ? scene_.bodies[gid].shape.radius : scene_.catoms.proto.shape.radius);
@@ -45,10 +45,11 @@ void MagnetField::find_members(const World& world) {
     poles_.resize(members_.size() * model_.directions.size());
     cells_.resize(members_.size());
     generation_ = world.generation();
+    magnet_version_ = world.magnet_version();
 }
 
 void MagnetField::prepare(const World& world) {
-    if (world.generation() != generation_) find_members(world);
+    if (world.generation() != generation_ || world.magnet_version() != magnet_version_) find_members(world);
     const std::size_t np = model_.directions.size();
     for (std::size_t k = 0; k < members_.size(); ++k) {
         dBodyID b = world.body(members_[k]);

@@ -54,6 +54,7 @@ private:
     const Scene& scene_;
     const MagnetModel& model_;
     std::uint64_t generation_ = ~0ULL;    // of the world when members were listed
+    std::uint64_t magnet_version_ = 0;    // of the world's run-time switches then
     std::vector<std::uint32_t> members_;  // local indices of bodies with magnets on
     std::vector<std::uint32_t> targets_;  // members that are owned
     std::vector<double> radius_;          // per member

@@ -208,7 +208,7 @@ Diagnostics observe(const World& world, const ContactBuffer& contacts, const Col
         d.angular_momentum[static_cast<std::size_t>(i)] = sums.s[Sums::Lx + i].value();
     }
     d.mean_penetration = d.contacts ? sums.s[Sums::Depth].value() / static_cast<double>(d.contacts) : 0;
-    d.state_hash = hash_of_sum(digests, domain);
+    d.state_hash = hash_of_sum(digests + world.program_digest(), domain);
     return d;
 }
 

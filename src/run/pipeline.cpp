@@ -75,10 +75,15 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     });
 }
 
-// The passes the scene needs, in order: magnets, then the controller; each
-// the threaded variant where one is built.
+// The passes the scene needs, in order: the catom program (it switches
+// magnets), magnets, then the controller; each the threaded variant where
+// one is built.
 void Pipeline::make_force_passes() {
     const ForceRegistry& r = Stages::instance().forces;
+    if (scene_.program.enabled) {
+        forces_.push_back(r.make("program", scene_, *exec_));
+        program_ = dynamic_cast<const ProgramPass*>(forces_.back().get());
+    }
     if (scene_.any_magnets()) forces_.push_back(r.make(Stages::threaded(r, "magnets"), scene_, *exec_));
     if (scene_.controller.enabled) forces_.push_back(r.make(Stages::threaded(r, "controller"), scene_, *exec_));
 }

@@ -26,6 +26,7 @@
 #include "io/trajectory.hpp"
 #include "observe/diagnostics.hpp"
 #include "observe/guard.hpp"
+#include "programs/program_pass.hpp"
 #include "run/checks.hpp"
 #include "solve/solver.hpp"
 #include "util/errors.hpp"
@@ -90,6 +91,8 @@ public:
     Execution& execution() { return *exec_; }
     // The force passes that run, in order (empty when the stage does not run).
     const std::vector<std::unique_ptr<ForcePass>>& force_passes() const { return forces_; }
+    // The catom program's pass, or null.
+    const ProgramPass* program() const { return program_; }
     const Guard& guard() const { return *guard_; }
     // Recorded frames (null unless RunOptions::record_trajectory).
     const Trajectory* trajectory() const { return trajectory_.get(); }
@@ -156,6 +159,7 @@ private:
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;
     std::vector<std::unique_ptr<ForcePass>> forces_;
+    const ProgramPass* program_ = nullptr;
     ContactBuffer contacts_;
     std::array<StageState, kStageCount> stages_;
     Diagnostics initial_;

@@ -102,6 +102,29 @@ void colour_json(const Collectives& domain, const ColourTimes& t, nlohmann::json
     parallel["wait_seconds"] = spread(domain, wait);
 }
 
+// The catom program: what ran, its messages and events per step, its time,
+// and (up to kListedCatoms catoms) every catom's values by name.
+nlohmann::json program_json(const ProgramPass& pass) {
+    constexpr std::size_t kListedCatoms = 100000;
+    const ProgramCounts& c = pass.counts();
+    const double steps = c.steps ? static_cast<double>(c.steps) : 1.0;
+    nlohmann::json out = {{"name", pass.spec().name},         {"catoms", pass.catoms().size()},
+                          {"steps", c.steps},                 {"messages", c.messages},
+                          {"events", c.events},               {"messages_per_step", static_cast<double>(c.messages) / steps},
+                          {"events_per_step", c.events / steps}, {"seconds", c.seconds},
+                          {"value_names", pass.spec().values}};
+    if (pass.catoms().size() > kListedCatoms) return out;
+    out["ids"] = pass.catoms();
+    nlohmann::json values = nlohmann::json::object();
+    for (std::size_t k = 0; k < pass.spec().values.size(); ++k) {
+        std::vector<double> v(pass.catoms().size());
+        for (std::size_t i = 0; i < v.size(); ++i) v[i] = pass.value(i, static_cast<int>(k));
+        values[pass.spec().values[k]] = v;
+    }
+    out["values"] = values;
+    return out;
+}
+
 // Substages reported for a stage whose backend times them, in this order.
 const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
     static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
@@ -211,6 +234,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["state_hash"] = hex64(p.last().state_hash);
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();
+    if (p.program()) r["program"] = program_json(*p.program());
     r["parallel"] = p.decomposition().report();
     if (domain.distributed()) r["parallel"]["solver_exchange_seconds"] = spread(domain, solver_exchange_seconds(p));
     if (const ColourTimes* t = p.solver().colour_times()) colour_json(domain, *t, r["parallel"]);

@@ -13,8 +13,10 @@ std::array<StageState, kStageCount> stage_plan(const Scene& scene, const StagePl
     set(Stage::Exchange, in.distributed, in.domain_why);
     const bool magnets = scene.any_magnets();
     const bool driver = scene.controller.enabled;
-    set(Stage::Forces, magnets || driver,
-        magnets && driver ? "magnets and controller" : magnets ? "magnets on" : driver ? "controller" : "no magnets, no controller");
+    const std::string program = scene.program.enabled ? "program " + scene.program.name + (magnets || driver ? ", " : "") : "";
+    set(Stage::Forces, magnets || driver || scene.program.enabled,
+        program + (magnets && driver ? "magnets and controller" : magnets ? "magnets on" : driver ? "controller"
+                   : program.empty() ? "no magnets, no controller" : ""));
     set(Stage::Collide, true, "backend " + in.backend);
     set(Stage::Joints, in.contact_joints,
         in.contact_joints ? "ODE contact joints for " + in.solver : in.solver + " reads the contacts directly");

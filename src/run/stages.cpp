@@ -3,6 +3,7 @@
 
 #include "forces/controller.hpp"
 #include "forces/magnets.hpp"
+#include "programs/program_pass.hpp"
 
 namespace parode {
 
@@ -11,6 +12,8 @@ Stages::Stages() {
     add_reference_solvers(solver);
     forces.add("magnets", [](const Scene& s, Execution&) { return std::make_unique<MagnetPass>(s); }, {},
                "catom magnets, gathered per body on one thread");
+    forces.add("program", [](const Scene& s, Execution& e) { return std::make_unique<ProgramPass>(s, e); }, {},
+               "the catom program of the scene's [program], its handlers on the execution's loops");
     forces.add("controller", [](const Scene& s, Execution&) { return std::make_unique<ControllerPass>(s); }, {},
                "the scene's [controller] (the buggy's driver)");
     loops.add("loops", [](const Execution&) { return std::make_unique<LoopRunner>(); }, {"serial"},

@@ -91,6 +91,17 @@ struct MagnetModel {
     double cutoff = 0.25;          // pole-pole interaction range (m)
 };
 
+// The catom program every catom runs (programs/program.hpp): a built-in name
+// or a shared library's path, its message budget, how far neighbours reach
+// and its numeric parameters.
+struct ProgramScene {
+    bool enabled = false;
+    std::string name;
+    int max_messages = 8;  // per catom per step
+    double reach = -1;     // beyond the two radii (m); negative: the magnets' cutoff, else a tenth of the radius
+    std::vector<std::pair<std::string, double>> params;
+};
+
 // The deterministic buggy driver (forces/controller.hpp): the chassis follows a
 // figure-eight track (or a straight line) from its start pose on a schedule of
 // slowly varying speed.
@@ -224,6 +235,7 @@ struct Scene {
     std::vector<JointSpec> joints;
     MagnetModel magnets;
     ControllerSpec controller;
+    ProgramScene program;
     GuardSpec guard;
     CheckSpec checks;
     ParallelSpec parallel;
@@ -234,6 +246,8 @@ struct Scene {
     // The spec of body `gid` (generated for a catom).
     BodySpec body(std::size_t gid) const;
     bool body_magnets(std::size_t gid) const;
+    // Whether body `gid` is a catom (of [catoms], or a [[bodies]] entry with catom = true).
+    bool body_is_catom(std::size_t gid) const { return gid < bodies.size() ? bodies[gid].catom : gid < body_count(); }
     // Largest bounding-sphere radius of any body.
     double max_bounding_radius() const;
     std::size_t catom_count() const;

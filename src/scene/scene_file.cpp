@@ -209,6 +209,24 @@ int body_ref(const Scene& sc, const Node& arr, std::size_t i) {
     throw SceneError(where(v) + ": key '" + arr.path() + "': expected the name of a body or \"world\", got " + describe(v));
 }
 
+// [program]: name, max_messages, reach, and [program.params] of numbers.
+void read_program(const Node& root, Scene& sc) {
+    if (!root.has("program")) return;
+    const Node t = root.at("program");
+    t.expect_keys(table_keys("program"));
+    ProgramScene& p = sc.program;
+    p.enabled = true;
+    p.name = t.string("name", "");
+    if (p.name.empty()) t.fail("name", "a built-in program's name or a program library's path (.so)");
+    p.max_messages = static_cast<int>(t.integer("max_messages", p.max_messages, 0, 1000000));
+    p.reach = t.number("reach", p.reach, -1.0, 1e6);
+    if (!t.has("params")) return;
+    const Node params = t.at("params");
+    params.require_table();
+    for (const auto& kv : params.value().as_table()) p.params.emplace_back(kv.first, params.number_required(kv.first));
+    std::sort(p.params.begin(), p.params.end());
+}
+
 void read_joint_params(const Node& t, JointSpec& j) {
     if (!t.has("params")) return;
     const Node p = t.at("params");
@@ -355,6 +373,7 @@ Scene build_scene(toml::value& data, const std::string& name, const std::vector<
     const std::size_t hand_written = sc.bodies.size();
     read_catoms(root, catoms, sc);
     read_magnets(root, sc);
+    read_program(root, sc);
     // Substeps hold the force passes' forces over the step: explicit stiff
     // springs such as the magnets then gain energy (docs/performance/speed-vs-error.md).
     if (sc.solver.substeps > 1 && sc.magnets.enabled && sc.magnets.strength > 0) {

@@ -129,6 +129,7 @@ std::vector<SceneKey> build() {
                                            "upwards; ids after the [[bodies]]"),
          table("magnets").def("off").means("the catom magnets; writing the table turns them on"),
          table("controller").def("none").means("the buggy driver on hinge2 joints: axis 1 steers, axis 2 drives"),
+         table("program").def("none").means("the program every catom runs (event handlers, messages, magnets)"),
          table("guard").def("the defaults below").means("what stops a runaway run (a NaN always does)"),
          table("checks").def("none").means("pass criteria of the run (exit 5 when one fails); unset ones are not checked"),
          table("parallel").def("the defaults below").means("load balance of distributed runs"),
@@ -163,6 +164,12 @@ std::vector<SceneKey> build() {
          num("linear").unit("m/s").in(0, kInf).def(sv.auto_disable_linear).means("speed below which a body rests"),
          num("angular").unit("rad/s").in(0, kInf).def(sv.auto_disable_angular).means("turn rate below which a body rests"),
          integer("steps").in(1, 1e6).def(sv.auto_disable_steps).means("steps at rest before a body sleeps")});
+    add(out, "program",
+        {str("name").def("required").means("a built-in program (gradient, sculpt, wave) or a program library (.so)"),
+         integer("max_messages").in(0, 1e6).def(ProgramScene{}.max_messages).means("messages a catom may send a step"),
+         num("reach").unit("m").in(-1, 1e6).def("magnets.cutoff, else radius / 10")
+             .means("how far beyond the two radii a catom sees neighbours"),
+         table("params").def("none").means("numbers the program reads by name")});
     add(out, "[[materials]]",
         {str("name").range("non-empty, unique").def("required").means("what bodies, statics, planes and catoms name"),
          num("mu").in(0, kInf).def(mat.mu).means("Coulomb friction"),

@@ -27,6 +27,11 @@ struct OutputError : std::runtime_error { using std::runtime_error::runtime_erro
 // both values. Exit code 8.
 struct CheckpointError : std::runtime_error { using std::runtime_error::runtime_error; };
 
+// A catom program that fails: its library does not load or lacks the entry
+// point, a handler throws, it messages a catom that is not a neighbour or
+// sends past its budget; names the catom, the event and the message. Exit code 9.
+struct ProgramError : std::runtime_error { using std::runtime_error::runtime_error; };
+
 // A run refused because its memory estimate exceeds what the machine gives.
 // Exit code 6 (as std::bad_alloc).
 struct MemoryError : std::runtime_error { using std::runtime_error::runtime_error; };

@@ -85,6 +85,20 @@ public:
     // Changes whenever a body is added, removed (local indices moved) or
     // changes between owned and ghost.
     std::uint64_t generation() const { return generation_; }
+    // Catom magnets switched off at run time (catom programs), by global id,
+    // and a counter that changes with every switch.
+    bool magnets_switched_off(std::uint32_t gid) const { return gid < magnets_off_.size() && magnets_off_[gid] != 0; }
+    void switch_magnets(std::uint32_t gid, bool on) {
+        if (magnets_off_.size() <= gid) magnets_off_.resize(global_, 0);
+        if ((magnets_off_[gid] != 0) == !on) return;
+        magnets_off_[gid] = on ? 0 : 1;
+        ++magnet_version_;
+    }
+    std::uint64_t magnet_version() const { return magnet_version_; }
+    // What the catom programs' state adds to the state hash (modulo 2^64 sum
+    // of their catoms' digests on this process).
+    std::uint64_t program_digest() const { return program_digest_; }
+    void set_program_digest(std::uint64_t d) { program_digest_ = d; }
 
     // Every geom of space(): local body geoms in local order, then statics.
     const std::vector<dGeomID>& geoms() const { return geoms_; }
@@ -192,6 +206,9 @@ private:
     std::size_t owned_ = 0;
     IdMap map_;
     std::uint64_t generation_ = 0;
+    std::vector<std::uint8_t> magnets_off_;  // by global id, once a program switched one
+    std::uint64_t magnet_version_ = 0;
+    std::uint64_t program_digest_ = 0;
     unsigned long drand_seed_ = 0;
     bool defer_moves_ = false;  // poses_written leaves the marks to sync_moves
     bool moves_pending_ = false;  // poses written, ODE's spaces not told

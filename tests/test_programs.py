@@ -1,0 +1,178 @@
+#!/usr/bin/env python3
+"""Catom programs end to end (`parode run` with a [program] table), each
+against an independent answer computed here from the run's own positions:
+
+- gradient: every catom's hop count equals a breadth-first search of the
+  neighbour graph (centres within 2 r + reach) from the seed;
+- wave: every catom records the step the wave reached it (its BFS distance),
+  and the messages number between |V| - 1 and 2 |E| (the algorithm's bound);
+- sculpt: starting from the magnetic prism, the catoms outside a sphere switch
+  their magnets off and fall away (at least 80 % of them move more than 0.25 m)
+  while those inside keep their shape (RMS change of their distances to their
+  centroid below 5 cm, the tolerance of a held cluster settling);
+- the same state hash on 1 and 2 threads, and another one than without the
+  program (its state is hashed);
+- bad programs: an unknown name, a library that does not load or lacks the
+  entry point, a handler that throws, a sender past its budget: exit 9 with
+  the catom, the event and the reason.
+Usage: test_programs.py PARODE SOURCE [unittest args]
+"""
+import collections
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+PARODE = sys.argv[1] if len(sys.argv) > 1 else "build/ci/parode"
+SOURCE = sys.argv[2] if len(sys.argv) > 2 else "."
+REST = sys.argv[3:]
+PRISM = os.path.join(SOURCE, "jobs", "scenes", "magnetic-tennis.toml")
+REACH = 0.25  # magnetic-tennis: magnets.cutoff, the program's default reach
+RADIUS = 0.5
+
+
+def scene_with(program, d, extra=""):
+    with open(PRISM) as f:
+        text = f.read()
+    path = os.path.join(d, "scene.toml")
+    with open(path, "w") as f:
+        f.write(text + "\n" + program + "\n" + extra)
+    return path
+
+
+def run(scene, d, *options, expect=0):
+    report = os.path.join(d, "r.json")
+    snap = os.path.join(d, "s.csv")
+    cmd = [PARODE, "run", scene, "-q", "--report", report, "--snapshot", snap] + list(options)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if p.returncode != expect:
+        raise AssertionError(f"exit {p.returncode}, expected {expect}: {p.stderr}")
+    if expect:
+        return p.stderr
+    with open(report) as f:
+        rep = json.load(f)
+    frames = collections.defaultdict(dict)
+    with open(snap) as f:
+        for r in csv.DictReader(f):
+            frames[int(r["step"])][int(r["body"])] = tuple(float(r[k]) for k in "xyz")
+    return rep, frames
+
+
+def bfs(pos, seed):
+    ids = sorted(pos)
+    cell = collections.defaultdict(list)
+    edge = 2 * RADIUS + REACH
+    for i in ids:
+        cell[tuple(math.floor(c / edge) for c in pos[i])].append(i)
+    nbrs = {i: [] for i in ids}
+    for i in ids:
+        c = tuple(math.floor(v / edge) for v in pos[i])
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    for j in cell[(c[0] + dx, c[1] + dy, c[2] + dz)]:
+                        if j != i and math.dist(pos[i], pos[j]) <= 2 * RADIUS + REACH:
+                            nbrs[i].append(j)
+    dist = {seed: 0}
+    queue = collections.deque([seed])
+    while queue:
+        i = queue.popleft()
+        for j in nbrs[i]:
+            if j not in dist:
+                dist[j] = dist[i] + 1
+                queue.append(j)
+    return dist, sum(len(v) for v in nbrs.values()) // 2
+
+
+class Programs(unittest.TestCase):
+    def test_gradient_is_the_breadth_first_search(self):
+        with tempfile.TemporaryDirectory() as d:
+            scene = scene_with('[program]\nname = "gradient"\n[program.params]\nseed = 0', d)
+            rep, frames = run(scene, d, "--steps", "60", "--snapshot-every", "60")
+            p = rep["program"]
+            dist, _ = bfs(frames[60], 0)
+            hops = dict(zip(p["ids"], p["values"]["hops"]))
+            self.assertEqual(len(hops), 1000)
+            wrong = [(i, hops[i], dist.get(i, -1)) for i in hops if hops[i] != dist.get(i, -1)]
+            self.assertFalse(wrong, f"hop counts differ from the BFS at {len(wrong)} catoms: {wrong[:5]}")
+            self.assertEqual(max(hops.values()), 27)  # the far corner of a 10 x 10 x 10 prism
+
+    def test_wave_reaches_every_catom_within_its_message_bound(self):
+        with tempfile.TemporaryDirectory() as d:
+            scene = scene_with('[program]\nname = "wave"\n[program.params]\nseed = 555', d)
+            rep, frames = run(scene, d, "--steps", "40", "--snapshot-every", "40")
+            p = rep["program"]
+            dist, edges = bfs(frames[40], 555)
+            reached = dict(zip(p["ids"], p["values"]["step"]))
+            self.assertEqual({i: reached[i] for i in reached}, {i: float(dist[i]) for i in reached})
+            self.assertGreaterEqual(p["messages"], 1000 - 1)
+            self.assertLessEqual(p["messages"], 2 * edges)
+
+    def test_sculpt_keeps_the_catoms_inside_the_sphere(self):
+        with tempfile.TemporaryDirectory() as d:
+            program = '[program]\nname = "sculpt"\n[program.params]\ncx = 0.0\ncy = 0.0\ncz = 0.5\nradius = 4.0'
+            rep, frames = run(scene_with(program, d), d, "--steps", "400", "--snapshot-every", "400")
+            inside = dict(zip(rep["program"]["ids"], rep["program"]["values"]["inside"]))
+            start, end = frames[0], frames[400]
+            geometric = {i: float(math.dist(start[i], (0.0, 0.0, 0.5)) <= 4.0) for i in start}
+            self.assertEqual(inside, geometric)
+            kept = [i for i in start if geometric[i]]
+            gone = [i for i in start if not geometric[i]]
+            self.assertGreater(len(kept), 50)
+            self.assertGreater(len(gone), 300)
+
+            def centred(f):
+                c = [sum(f[i][k] for i in kept) / len(kept) for k in range(3)]
+                return {i: math.dist(f[i], c) for i in kept}
+            a, b = centred(start), centred(end)
+            rms = math.sqrt(sum((a[i] - b[i]) ** 2 for i in kept) / len(kept))
+            self.assertLess(rms, 0.05, "the catoms inside lost their shape")
+            moved = sum(math.dist(start[i], end[i]) > 0.25 for i in gone) / len(gone)
+            self.assertGreater(moved, 0.8, f"only {moved:.0%} of the catoms outside fell away")
+
+    def test_same_hash_on_any_thread_count_and_hashed_state(self):
+        with tempfile.TemporaryDirectory() as d:
+            plain = run(PRISM, d, "--steps", "30", "--set", "catoms.count=512")[0]["state_hash"]
+            scene = scene_with('[program]\nname = "gradient"\n[program.params]\nseed = 7', d)
+            one = run(scene, d, "--steps", "30", "--set", "catoms.count=512", "--threads", "1")[0]
+            two = run(scene, d, "--steps", "30", "--set", "catoms.count=512", "--threads", "2")[0]
+            self.assertEqual(one["state_hash"], two["state_hash"])
+            self.assertEqual(one["program"]["values"], two["program"]["values"])
+            self.assertNotEqual(one["state_hash"], plain)
+
+
+class BadPrograms(unittest.TestCase):
+    def failure(self, program, extra=""):
+        with tempfile.TemporaryDirectory() as d:
+            return run(scene_with(program, d, extra), d, "--steps", "5", expect=9)
+
+    def test_unknown_name(self):
+        err = self.failure('[program]\nname = "gradiant"')
+        self.assertIn("unknown program 'gradiant'", err)
+        self.assertIn("gradient, sculpt, wave", err)
+
+    def test_library_that_does_not_load(self):
+        self.assertIn("cannot load the program library /nonexistent/p.so", self.failure('[program]\nname = "/nonexistent/p.so"'))
+
+    def test_library_without_the_entry_point(self):
+        with tempfile.TemporaryDirectory() as d:
+            lib = os.path.join(d, "libm.so")
+            os.symlink("/lib/x86_64-linux-gnu/libm.so.6", lib)
+            err = self.failure(f'[program]\nname = "{lib}"')
+            self.assertIn("has no entry point parode_program", err)
+
+    def test_handler_that_throws_names_catom_and_event(self):
+        err = self.failure('[program]\nname = "sculpt"')
+        self.assertIn("catom 0, event start: program.params.radius must be a positive number", err)
+
+    def test_sender_past_its_budget(self):
+        err = self.failure('[program]\nname = "gradient"\nmax_messages = 1\n[program.params]\nseed = 0')
+        self.assertIn("catom 0, event timer: more than program.max_messages = 1 messages in one step", err)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0]] + REST, verbosity=2)
