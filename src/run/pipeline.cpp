@@ -178,6 +178,7 @@ void Pipeline::write_checkpoint(const std::string& path) {
 const Substages* Pipeline::substages(Stage s) const {
     if (s == Stage::Collide) return backend_->substages();
     if (s == Stage::Solve) return solver_->substages();
+    if (s == Stage::Forces) return forces_.empty() ? nullptr : &force_times_;
     return nullptr;
 }
 
@@ -243,8 +244,15 @@ void Pipeline::finish() {
 
 void Pipeline::run_migrate() { domain_->migrate(*world_, solver_->warm_impulses(), steps_); }
 
+// Each pass timed apart (the forces stage's substages: program, magnets,
+// controller).
 void Pipeline::run_forces() {
-    for (auto& pass : forces_) pass->apply(*world_, steps_ * scene_.dt);
+    for (auto& pass : forces_) {
+        const double t0 = now_seconds();
+        pass->apply(*world_, steps_ * scene_.dt);
+        const std::string name = pass->name();
+        force_times_.add(name.substr(0, name.find_first_of(":/")).c_str(), now_seconds() - t0);
+    }
 }
 
 void Pipeline::run_collide() {

@@ -160,6 +160,7 @@ private:
     std::unique_ptr<SolverBackend> solver_;
     std::vector<std::unique_ptr<ForcePass>> forces_;
     const ProgramPass* program_ = nullptr;
+    Substages force_times_;  // per force pass
     ContactBuffer contacts_;
     std::array<StageState, kStageCount> stages_;
     Diagnostics initial_;

@@ -129,7 +129,8 @@ nlohmann::json program_json(const ProgramPass& pass) {
 const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
     static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
         {Stage::Solve, {"build", "warm_start", "sweeps", "integrate"}},
-        {Stage::Collide, {"refresh", "broadphase", "narrowphase", "merge"}}};
+        {Stage::Collide, {"refresh", "broadphase", "narrowphase", "merge"}},
+        {Stage::Forces, {"program", "magnets", "controller"}}};
     return names;
 }
 
@@ -170,6 +171,7 @@ void print_substages(std::ostream& os, const nlohmann::json& r, Stage stage, dou
         if (st != stage) continue;
         for (const char* sub : names) {
             const double v = r["substages"][name].value(sub, 0.0);
+            if (stage == Stage::Forces && v == 0) continue;  // a pass the scene does not have
             os << "    " << std::left << std::setw(11) << sub << std::right << std::setw(8) << v << std::setw(7)
                << std::setprecision(1) << (wall > 0 ? 100.0 * v / wall : 0.0) << "%\n" << std::setprecision(3);
         }
