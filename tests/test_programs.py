@@ -134,6 +134,26 @@ class Programs(unittest.TestCase):
             moved = sum(math.dist(start[i], end[i]) > 0.25 for i in gone) / len(gone)
             self.assertGreater(moved, 0.8, f"only {moved:.0%} of the catoms outside fell away")
 
+    def test_values_in_the_h5md_snapshot_and_its_xdmf(self):
+        try:
+            import h5py
+        except ImportError:
+            self.skipTest("h5py is not installed")
+        with tempfile.TemporaryDirectory() as d:
+            scene = scene_with('[program]\nname = "gradient"\n[program.params]\nseed = 0', d)
+            h5 = os.path.join(d, "g.h5")
+            rep = run(scene, d, "--steps", "40", "--set", "catoms.count=512")[0]
+            subprocess.run([PARODE, "run", scene, "-q", "--steps", "40", "--set", "catoms.count=512", "--snapshot", h5,
+                            "--snapshot-every", "20"], check=True, timeout=300)
+            with h5py.File(h5, "r") as f:
+                v = f["particles/all/program_hops/value"]
+                self.assertEqual(v.shape, (3, 512))
+                self.assertEqual(list(f["particles/all/program_hops/step"]), [0, 20, 40])
+                self.assertEqual(list(v[-1]), rep["program"]["values"]["hops"])
+                self.assertTrue(all(x == 0 for x in v[0]))  # step 0: before any handler ran
+            with open(os.path.join(d, "g.xdmf")) as f:
+                self.assertIn('Attribute Name="program_hops"', f.read())
+
     def test_same_hash_on_any_thread_count_and_hashed_state(self):
         with tempfile.TemporaryDirectory() as d:
             plain = run(PRISM, d, "--steps", "30", "--set", "catoms.count=512")[0]["state_hash"]

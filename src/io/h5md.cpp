@@ -11,6 +11,7 @@
 #include "domain/gather.hpp"
 #include "io/h5_file.hpp"
 #include "io/static_geometry.hpp"
+#include "programs/program.hpp"
 #include "io/xdmf.hpp"
 
 #ifndef PARODE_VERSION
@@ -40,29 +41,32 @@ constexpr std::size_t kXAxis = 3;
 // the run goes on, and at the end.
 constexpr int kXdmfSeconds = 10;
 
-void state_row(const World& world, std::size_t i, double* out) {
+// A row: the state (kRow doubles), then the catom program's values.
+void state_row(const World& world, std::size_t i, double* out, std::size_t values) {
     const dReal* p = dBodyGetPosition(world.body(i));
     const dReal* v = dBodyGetLinearVel(world.body(i));
     const dReal* q = dBodyGetQuaternion(world.body(i));
     for (int k = 0; k < 3; ++k) out[k] = p[k];
     for (int k = 0; k < 3; ++k) out[3 + k] = v[k];
     for (int k = 0; k < 4; ++k) out[6 + k] = q[k];
+    for (std::size_t k = 0; k < values; ++k) out[kRow + k] = world.program_value(i, static_cast<int>(k));
 }
 
-// Columns [at, at + d) of `count` rows of kRow doubles, contiguous.
-void columns(const std::vector<double>& rows, std::size_t count, int at, int d, std::vector<double>& out) {
+// Columns [at, at + d) of `count` rows of `width` doubles, contiguous.
+void columns(const std::vector<double>& rows, std::size_t count, std::size_t width, int at, int d,
+             std::vector<double>& out) {
     const std::size_t w = static_cast<std::size_t>(d);
     out.resize(count * w);
     for (std::size_t k = 0; k < count; ++k) {
-        for (std::size_t c = 0; c < w; ++c) out[k * w + c] = rows[k * kRow + static_cast<std::size_t>(at) + c];
+        for (std::size_t c = 0; c < w; ++c) out[k * w + c] = rows[k * width + static_cast<std::size_t>(at) + c];
     }
 }
 
 // The body x axis of each row's quaternion.
-void x_axes(const std::vector<double>& rows, std::size_t count, std::vector<float>& out) {
+void x_axes(const std::vector<double>& rows, std::size_t count, std::size_t width, std::vector<float>& out) {
     out.resize(3 * count);
     for (std::size_t k = 0; k < count; ++k) {
-        const double* q = rows.data() + k * kRow + 6;
+        const double* q = rows.data() + k * width + 6;
         const Vec3 x = rotate({q[0], q[1], q[2], q[3]}, {1.0, 0.0, 0.0});
         for (std::size_t c = 0; c < 3; ++c) out[3 * k + c] = static_cast<float>(x[c]);
     }
@@ -113,6 +117,8 @@ private:
     IdBlock block_;
     h5::Id step_, time_;
     std::array<h5::Id, kElements.size()> value_;
+    std::vector<std::string> program_;  // the catom program's value names
+    std::vector<h5::Id> program_value_;
     XdmfLayout layout_;
     std::chrono::steady_clock::time_point xdmf_written_;
 };
@@ -211,6 +217,15 @@ void H5md::make_series(const h5::Id& group) {
         value_[e] = file_.dataset(g.get(), "value", kElements[e].type, {0, n, static_cast<hsize_t>(kElements[e].dims)});
         if (*kElements[e].unit) file_.attribute(value_[e].get(), "unit", std::string(kElements[e].unit));
     }
+    // The catom program's values: program_<name>, a scalar per body [F][N].
+    if (scene_.program.enabled) program_ = load_program(scene_.program.name).values;
+    for (const std::string& name : program_) {
+        h5::Id g = file_.group(group.get(), "program_" + name);
+        file_.link(step_.get(), g.get(), "step");
+        file_.link(time_.get(), g.get(), "time");
+        program_value_.push_back(file_.dataset(g.get(), "value", Type::F64, {0, n}));
+    }
+    layout_.values = program_;
 }
 
 void H5md::write_statics(const StaticMesh& mesh) {
@@ -238,19 +253,25 @@ void H5md::write_whole(const h5::Id& parent, const std::string& name, Type type,
 // complete frames whenever the file is read. Flushed, then the XDMF (at most
 // every kXdmfSeconds) lists the frames on the disk.
 void H5md::write(const World& world, long step, double time) {
-    const auto row = [&world](std::size_t i, double* out) { state_row(world, i, out); };
-    const std::vector<double> rows = block_rows(domain_, world, kRow, row);
+    const std::size_t values = program_.size(), width = kRow + values;
+    const auto row = [&world, values](std::size_t i, double* out) { state_row(world, i, out, values); };
+    const std::vector<double> rows = block_rows(domain_, world, static_cast<int>(width), row);
     const hsize_t f = layout_.steps.size();
     std::vector<double> column;
     int at = 0;
     for (std::size_t e = 0; e < kXAxis; ++e) {
-        columns(rows, block_.count, at, kElements[e].dims, column);
+        columns(rows, block_.count, width, at, kElements[e].dims, column);
         write_frame(e, f, column.data());
         at += kElements[e].dims;
     }
     std::vector<float> axes;
-    x_axes(rows, block_.count, axes);
+    x_axes(rows, block_.count, width, axes);
     write_frame(kXAxis, f, axes.data());
+    for (std::size_t k = 0; k < values; ++k) {
+        columns(rows, block_.count, width, kRow + static_cast<int>(k), 1, column);
+        file_.extend(program_value_[k].get(), f + 1);
+        file_.write(program_value_[k].get(), Type::F64, {f, block_.first}, {1, block_.count}, column.data());
+    }
     const std::int64_t s = step;
     const hsize_t one = domain_.root() ? 1 : 0;
     file_.extend(step_.get(), f + 1);
@@ -278,6 +299,7 @@ void H5md::close() {
     step_.reset();
     time_.reset();
     for (h5::Id& v : value_) v.reset();
+    for (h5::Id& v : program_value_) v.reset();
     file_.close();
     if (domain_.root()) write_xdmf(xdmf_, layout_);
 }

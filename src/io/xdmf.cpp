@@ -36,6 +36,18 @@ std::string slab(const XdmfLayout& l, const std::string& element, std::size_t f,
     return os.str();
 }
 
+// Frame f of a scalar time series (frames x N).
+std::string slab2(const XdmfLayout& l, const std::string& element, std::size_t f) {
+    const std::string n = std::to_string(l.bodies);
+    std::ostringstream os;
+    os << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n << "\" Type=\"HyperSlab\">"
+       << "<DataItem Dimensions=\"3 2\" Format=\"XML\">" << f << " 0 1 1 1 " << n << "</DataItem>"
+       << heavy(l, std::string(kH5mdGroup) + "/" + element + "/value", std::to_string(l.steps.size()) + " " + n, "Float",
+                "8")
+       << "</DataItem>";
+    return os.str();
+}
+
 std::string attribute(const std::string& name, const char* type, const std::string& item) {
     return "      <Attribute Name=\"" + name + "\" AttributeType=\"" + type + "\" Center=\"Node\">" + item + "</Attribute>\n";
 }
@@ -52,7 +64,9 @@ void frame(std::ostream& os, const XdmfLayout& l, std::size_t f) {
        << attribute("velocity", "Vector", slab(l, "velocity", f, 3, "8"))
        << attribute("orientation", "Matrix", slab(l, "orientation", f, 4, "8"))
        << attribute("x_axis", "Vector", slab(l, "x_axis", f, 3, "4")) << fixed(l, "radius", "Float")
-       << fixed(l, "mass", "Float") << fixed(l, "id", "Int") << fixed(l, "species", "Int") << "    </Grid>\n";
+       << fixed(l, "mass", "Float") << fixed(l, "id", "Int") << fixed(l, "species", "Int");
+    for (const std::string& v : l.values) os << attribute("program_" + v, "Scalar", slab2(l, "program_" + v, f));
+    os << "    </Grid>\n";
 }
 
 void cells(std::ostream& os, const XdmfLayout& l, const char* name, const char* topology, std::size_t count, int corners) {

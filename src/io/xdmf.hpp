@@ -21,6 +21,7 @@ struct XdmfLayout {
     std::vector<long> steps;     // one grid per frame
     std::vector<double> times;
     std::size_t quads = 0, hexes = 0;  // static cells (0: no grid)
+    std::vector<std::string> values;   // the catom program's values: program_<name>, [F][N]
 };
 
 constexpr const char* kH5mdGroup = "/particles/all";

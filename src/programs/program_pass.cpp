@@ -244,6 +244,8 @@ void ProgramPass::finish_step(World& world) {
     for (std::size_t k = 0; k < catoms_.size(); ++k) {
         Catom& c = catoms_[k];
         world.switch_magnets(ids_[k], c.magnets);
+        const std::size_t local = world.local_of(ids_[k]);
+        for (std::size_t v = 0; v < spec_->values.size(); ++v) world.set_program_value(local, static_cast<int>(v), c.values[v]);
         for (const auto& [to, m] : c.outbox) {
             const auto at = std::lower_bound(ids_.begin(), ids_.end(), to);
             catoms_[static_cast<std::size_t>(at - ids_.begin())].inbox.push_back(m);

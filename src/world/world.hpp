@@ -99,6 +99,15 @@ public:
     // of their catoms' digests on this process).
     std::uint64_t program_digest() const { return program_digest_; }
     void set_program_digest(std::uint64_t d) { program_digest_ = d; }
+    // A catom program's value k (0 <= k < 4) of local body `local`, for the
+    // snapshots (0 for a body without a program).
+    void set_program_value(std::size_t local, int k, double v) {
+        if (program_values_.size() < bodies_.size()) program_values_.resize(bodies_.size());
+        program_values_[local][static_cast<std::size_t>(k)] = v;
+    }
+    double program_value(std::size_t local, int k) const {
+        return local < program_values_.size() ? program_values_[local][static_cast<std::size_t>(k)] : 0.0;
+    }
 
     // Every geom of space(): local body geoms in local order, then statics.
     const std::vector<dGeomID>& geoms() const { return geoms_; }
@@ -209,6 +218,7 @@ private:
     std::vector<std::uint8_t> magnets_off_;  // by global id, once a program switched one
     std::uint64_t magnet_version_ = 0;
     std::uint64_t program_digest_ = 0;
+    std::vector<std::array<double, 4>> program_values_;  // per local body, once a program set one
     unsigned long drand_seed_ = 0;
     bool defer_moves_ = false;  // poses_written leaves the marks to sync_moves
     bool moves_pending_ = false;  // poses written, ODE's spaces not told

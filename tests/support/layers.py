@@ -13,7 +13,7 @@ import sys
 
 # src/ folders from the bottom up: a file may include its own folder and any
 # folder before it.
-SRC_LAYERS = ["util", "exec", "scene", "collide", "world", "domain", "forces", "solve", "observe", "io", "run"]
+SRC_LAYERS = ["util", "exec", "scene", "collide", "world", "domain", "forces", "programs", "solve", "observe", "io", "run"]
 # omp/ and mpi/ sit above the whole core; inside omp/ runtime/ comes first,
 # the stages after it, the registration last.
 OMP_LAYERS = ["runtime", "grid", "solver", "forces", "stages"]
