@@ -14,36 +14,44 @@ namespace parode {
 
 struct ProgramPass::Catom {
     std::unique_ptr<CatomProgram> program;
-    std::vector<Neighbour> neighbours;        // this step's, by id
-    std::vector<std::uint32_t> before;        // last step's neighbour ids
-    std::vector<CatomMessage> inbox;          // to deliver this step
+    std::vector<CatomMessage> inbox;                             // to deliver this step
     std::vector<std::pair<std::uint32_t, CatomMessage>> outbox;  // sent this step: (to, message)
     std::array<double, kProgramValues> values{};
     bool magnets = true, started = false;
     double timer_at = -1;  // negative: no timer
-    std::uint64_t events = 0;
+    std::uint32_t events = 0;
     std::string error;     // this step's first failure
-    Vec3 x{0, 0, 0}, v{0, 0, 0};
-    std::array<double, 4> q{1, 0, 0, 0};
 };
 
 namespace {
 
 const char* kEventNames[] = {"start", "neighbour lost", "neighbour gained", "message", "timer"};
 
+// One catom's view during its handlers: pose and velocity read from ODE,
+// neighbours (with directions) filled in by the pass before the handlers.
 class Context final : public CatomContext {
 public:
-    Context(ProgramPass::Catom& c, std::uint32_t id, long step, double time, const ProgramScene& s)
-        : c_(c), id_(id), step_(step), time_(time), scene_(s) {}
+    Context(ProgramPass::Catom& c, std::uint32_t id, dBodyID body, long step, double time, const ProgramScene& s,
+            const std::vector<Neighbour>& nbrs)
+        : c_(c), id_(id), body_(body), step_(step), time_(time), scene_(s), nbrs_(nbrs) {}
     std::uint32_t id() const override { return id_; }
     long step() const override { return step_; }
     double time() const override { return time_; }
-    Vec3 position() const override { return c_.x; }
-    Vec3 velocity() const override { return c_.v; }
-    std::array<double, 4> orientation() const override { return c_.q; }
-    const std::vector<Neighbour>& neighbours() const override { return c_.neighbours; }
+    Vec3 position() const override {
+        const dReal* p = dBodyGetPosition(body_);
+        return {p[0], p[1], p[2]};
+    }
+    Vec3 velocity() const override {
+        const dReal* v = dBodyGetLinearVel(body_);
+        return {v[0], v[1], v[2]};
+    }
+    std::array<double, 4> orientation() const override {
+        const dReal* q = dBodyGetQuaternion(body_);
+        return {q[0], q[1], q[2], q[3]};
+    }
+    const std::vector<Neighbour>& neighbours() const override { return nbrs_; }
     bool is_neighbour(std::uint32_t id) const override {
-        return std::binary_search(c_.neighbours.begin(), c_.neighbours.end(), Neighbour{id, {}, 0},
+        return std::binary_search(nbrs_.begin(), nbrs_.end(), Neighbour{id, {}, 0},
                                   [](const Neighbour& a, const Neighbour& b) { return a.id < b.id; });
     }
     void send(std::uint32_t to, const std::array<std::int64_t, 4>& data) override {
@@ -72,9 +80,11 @@ public:
 private:
     ProgramPass::Catom& c_;
     std::uint32_t id_;
+    dBodyID body_;
     long step_;
     double time_;
     const ProgramScene& scene_;
+    const std::vector<Neighbour>& nbrs_;
 };
 
 double catom_radius(const Scene& scene, std::uint32_t gid) {
@@ -120,8 +130,8 @@ void run_catom(ProgramPass::Catom& c, Context& ctx, const std::vector<std::uint3
     }
 }
 
-// What one catom adds to the state hash.
-std::uint64_t catom_digest(std::uint32_t id, const ProgramPass::Catom& c) {
+// What one catom adds to the state hash; `bytes` is the caller's scratch.
+std::uint64_t catom_digest(std::uint32_t id, const ProgramPass::Catom& c, std::vector<unsigned char>& bytes) {
     Fnv1a h;
     h.add_bytes(&id, sizeof id);
     h.add_bytes(c.values.data(), sizeof(double) * c.values.size());
@@ -132,17 +142,20 @@ std::uint64_t catom_digest(std::uint32_t id, const ProgramPass::Catom& c) {
         h.add_bytes(&m.from, sizeof m.from);
         h.add_bytes(m.data.data(), sizeof(std::int64_t) * m.data.size());
     }
-    std::vector<unsigned char> bytes;
+    bytes.clear();
     c.program->save(bytes);
     if (!bytes.empty()) h.add_bytes(bytes.data(), bytes.size());
     return h.value();
 }
 
-// Sorted ids of `a` not in `b`.
-std::vector<std::uint32_t> missing(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
-    std::vector<std::uint32_t> out;
-    std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-    return out;
+// Ids of the sorted range [a0, a1) not in [b0, b1), as gids, into `out`.
+void missing(const std::uint32_t* a0, const std::uint32_t* a1, const std::uint32_t* b0, const std::uint32_t* b1,
+             const std::vector<std::uint32_t>& gid, std::vector<std::uint32_t>& out) {
+    out.clear();
+    for (; a0 != a1; ++a0) {
+        while (b0 != b1 && *b0 < *a0) ++b0;
+        if (b0 == b1 || *b0 != *a0) out.push_back(gid[*a0]);
+    }
 }
 
 }  // namespace
@@ -155,6 +168,7 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     const double r = ids_.empty() ? 0.0 : catom_radius(scene, ids_.front());
     reach_ = scene.program.reach >= 0 ? scene.program.reach : scene.magnets.enabled ? scene.magnets.cutoff : 0.1 * r;
     catoms_.resize(ids_.size());
+    now_.at.assign(ids_.size() + 1, 0);
     for (std::size_t k = 0; k < ids_.size(); ++k) {
         catoms_[k].program = spec_->make();
         if (!catoms_[k].program) throw ProgramError("program " + spec_->name + " made no program object");
@@ -166,66 +180,124 @@ ProgramPass::~ProgramPass() = default;
 
 double ProgramPass::value(std::size_t catom, int k) const { return catoms_[catom].values.at(static_cast<std::size_t>(k)); }
 
-// Centres in a sorted cell list (edge: the largest reach of a pair); each
-// catom looks at the 27 cells around its own.
+// Centres in a cell list of edge 2 r_max + reach: a dense grid over the
+// bounding box when it has at most 8 cells a catom (counting sort, O(N)),
+// else the catoms sorted by cell key; each catom then looks at the 27 cells
+// around its own. Chunks of catoms fill their own lists, joined in order.
 void ProgramPass::find_neighbours(const World& world) {
     const std::size_t n = ids_.size();
+    if (locals_.empty()) {
+        for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
+    }
     double rmax = 0;
     for (std::uint32_t g : ids_) rmax = std::max(rmax, catom_radius(scene_, g));
-    const double edge = 2 * rmax + reach_;
-    auto key = [&](const Vec3& x, int dx, int dy, int dz) {
-        const auto c = [&](double v, int d) { return static_cast<std::int64_t>(std::floor(v / edge)) + d + (1 << 20); };
-        return (c(x[0], dx) << 42) | (c(x[1], dy) << 21) | c(x[2], dz);
-    };
-    std::vector<std::pair<std::int64_t, std::uint32_t>> cells(n);  // (cell, catom index)
+    edge_ = 2 * rmax + reach_;
+    std::vector<Vec3> x(n);
+    Vec3 high{-1e300, -1e300, -1e300};
+    low_ = {1e300, 1e300, 1e300};
     for (std::size_t k = 0; k < n; ++k) {
-        Catom& c = catoms_[k];
-        dBodyID b = world.body(world.local_of(ids_[k]));
-        const dReal* p = dBodyGetPosition(b);
-        const dReal* v = dBodyGetLinearVel(b);
-        const dReal* q = dBodyGetQuaternion(b);
-        c.x = {p[0], p[1], p[2]};
-        c.v = {v[0], v[1], v[2]};
-        c.q = {q[0], q[1], q[2], q[3]};
-        cells[k] = {key(c.x, 0, 0, 0), static_cast<std::uint32_t>(k)};
+        const dReal* p = dBodyGetPosition(world.body(locals_[k]));
+        x[k] = {p[0], p[1], p[2]};
+        for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[k][a]), high[a] = std::max(high[a], x[k][a]);
     }
-    std::sort(cells.begin(), cells.end());
-    for_ranges(exec_.loops(), n, 256, [&](std::size_t k0, std::size_t k1) {
-        for (std::size_t k = k0; k < k1; ++k) {
-            Catom& c = catoms_[k];
-            c.neighbours.clear();
-            const double rk = catom_radius(scene_, ids_[k]);
-            for (int d = 0; d < 27; ++d) {
-                const std::int64_t want = key(c.x, d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
-                auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(want, std::uint32_t{0}));
-                for (; it != cells.end() && it->first == want; ++it) {
-                    const Catom& o = catoms_[it->second];
-                    if (it->second == k) continue;
-                    const Vec3 d3{o.x[0] - c.x[0], o.x[1] - c.x[1], o.x[2] - c.x[2]};
-                    const double dist = std::sqrt(d3[0] * d3[0] + d3[1] * d3[1] + d3[2] * d3[2]);
-                    if (dist > rk + catom_radius(scene_, ids_[it->second]) + reach_ || dist == 0) continue;
-                    c.neighbours.push_back({ids_[it->second], {d3[0] / dist, d3[1] / dist, d3[2] / dist}, dist});
-                }
-            }
-            std::sort(c.neighbours.begin(), c.neighbours.end(),
-                      [](const Neighbour& a, const Neighbour& b) { return a.id < b.id; });
+    double cells = 1;
+    for (int a = 0; a < 3; ++a) {
+        dims_[a] = n ? static_cast<std::int64_t>((high[a] - low_[a]) / edge_) + 1 : 1;
+        cells *= static_cast<double>(dims_[a]);
+    }
+    const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge_); };
+    sorted_.clear();
+    start_.clear();
+    if (cells <= 8.0 * static_cast<double>(n) + 64) {
+        start_.assign(static_cast<std::size_t>(cells) + 1, 0);
+        order_.resize(n);
+        std::vector<std::uint32_t> of(n);
+        for (std::size_t k = 0; k < n; ++k) {
+            of[k] = static_cast<std::uint32_t>((cell(x[k], 0) * dims_[1] + cell(x[k], 1)) * dims_[2] + cell(x[k], 2));
+            ++start_[of[k] + 1];
         }
+        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        for (std::size_t k = 0; k < n; ++k) order_[fill[of[k]]++] = static_cast<std::uint32_t>(k);
+    } else {
+        sorted_.resize(n);
+        for (std::size_t k = 0; k < n; ++k) {
+            sorted_[k] = {(cell(x[k], 0) << 42) | (cell(x[k], 1) << 21) | cell(x[k], 2), static_cast<std::uint32_t>(k)};
+        }
+        std::sort(sorted_.begin(), sorted_.end());
+    }
+    std::swap(before_, now_);
+    const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
+    std::vector<std::vector<std::uint32_t>> part(chunks);
+    now_.at.assign(n + 1, 0);
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        std::vector<std::uint32_t> mine;
+        for (std::size_t k = chunk_begin(n, chunks, c); k < chunk_begin(n, chunks, c + 1); ++k) {
+            const std::size_t from = mine.size();
+            neighbours_of(k, x, mine);
+            now_.at[k + 1] = static_cast<std::uint32_t>(mine.size() - from);
+        }
+        part[c] = std::move(mine);
     });
+    for (std::size_t k = 0; k < n; ++k) now_.at[k + 1] += now_.at[k];
+    now_.ids.clear();
+    now_.ids.reserve(now_.at[n]);
+    for (const auto& p : part) now_.ids.insert(now_.ids.end(), p.begin(), p.end());
 }
 
-void ProgramPass::run_handlers(const World& /*world*/, double time) {
-    for_ranges(exec_.loops(), catoms_.size(), 64, [&](std::size_t k0, std::size_t k1) {
+// Catom k's neighbours (catom indices, ascending) appended to `out`.
+void ProgramPass::neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
+    const std::size_t from = out.size();
+    const double rk = catom_radius(scene_, ids_[k]);
+    const auto take = [&](std::uint32_t j) {
+        if (j == k) return;
+        const double d = std::sqrt((x[j][0] - x[k][0]) * (x[j][0] - x[k][0]) + (x[j][1] - x[k][1]) * (x[j][1] - x[k][1]) +
+                                   (x[j][2] - x[k][2]) * (x[j][2] - x[k][2]));
+        if (d > 0 && d <= rk + catom_radius(scene_, ids_[j]) + reach_) out.push_back(j);
+    };
+    std::int64_t c[3];
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[k][a] - low_[a]) / edge_);
+    for (int d = 0; d < 27; ++d) {
+        const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
+        if (!start_.empty()) {
+            if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
+            const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
+            for (std::uint32_t i = start_[cell]; i < start_[cell + 1]; ++i) take(order_[i]);
+        } else {
+            const std::int64_t want = (cx << 42) | (cy << 21) | cz;
+            auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
+            for (; it != sorted_.end() && it->first == want; ++it) take(it->second);
+        }
+    }
+    std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());
+}
+
+void ProgramPass::run_handlers(const World& world, double time) {
+    const bool first = before_.at.empty();
+    for_ranges(exec_.loops(), catoms_.size(), 256, [&](std::size_t k0, std::size_t k1) {
+        std::vector<std::uint32_t> lost, gained;
+        std::vector<Neighbour> nbrs;
         for (std::size_t k = k0; k < k1; ++k) {
             Catom& c = catoms_[k];
-            std::vector<std::uint32_t> now;
-            now.reserve(c.neighbours.size());
-            for (const Neighbour& nb : c.neighbours) now.push_back(nb.id);
-            const std::vector<std::uint32_t> lost = missing(c.before, now), gained = missing(now, c.before);
+            const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
+            const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
+            const std::uint32_t* b0 = first ? nullptr : before_.ids.data() + before_.at[k];
+            const std::uint32_t* b1 = first ? nullptr : before_.ids.data() + before_.at[k + 1];
+            missing(b0, b1, n0, n1, ids_, lost);
+            missing(n0, n1, b0, b1, ids_, gained);
+            dBodyID body = world.body(locals_[k]);
+            const dReal* p = dBodyGetPosition(body);
+            nbrs.clear();
+            for (const std::uint32_t* j = n0; j != n1; ++j) {
+                const dReal* q = dBodyGetPosition(world.body(locals_[*j]));
+                const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+                const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                nbrs.push_back({ids_[*j], {d[0] / len, d[1] / len, d[2] / len}, len});
+            }
             c.outbox.clear();
             c.error.clear();
-            Context ctx(c, ids_[k], step_, time, scene_.program);
+            Context ctx(c, ids_[k], body, step_, time, scene_.program, nbrs);
             run_catom(c, ctx, lost, gained, time);
-            c.before = std::move(now);
         }
     });
 }
@@ -244,8 +316,9 @@ void ProgramPass::finish_step(World& world) {
     for (std::size_t k = 0; k < catoms_.size(); ++k) {
         Catom& c = catoms_[k];
         world.switch_magnets(ids_[k], c.magnets);
-        const std::size_t local = world.local_of(ids_[k]);
-        for (std::size_t v = 0; v < spec_->values.size(); ++v) world.set_program_value(local, static_cast<int>(v), c.values[v]);
+        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
+            world.set_program_value(locals_[k], static_cast<int>(v), c.values[v]);
+        }
         for (const auto& [to, m] : c.outbox) {
             const auto at = std::lower_bound(ids_.begin(), ids_.end(), to);
             catoms_[static_cast<std::size_t>(at - ids_.begin())].inbox.push_back(m);
@@ -254,7 +327,17 @@ void ProgramPass::finish_step(World& world) {
         events += c.events;
         c.events = 0;
     }
-    for (std::size_t k = 0; k < catoms_.size(); ++k) digest += catom_digest(ids_[k], catoms_[k]);
+    const std::size_t n = catoms_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
+    std::vector<std::uint64_t> sums(chunks, 0);  // modulo 2^64: any grouping gives the same total
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        std::vector<unsigned char> bytes;
+        std::uint64_t sum = 0;
+        for (std::size_t k = chunk_begin(n, chunks, c); k < chunk_begin(n, chunks, c + 1); ++k) {
+            sum += catom_digest(ids_[k], catoms_[k], bytes);
+        }
+        sums[c] = sum;
+    });
+    for (std::uint64_t v : sums) digest += v;
     world.set_program_digest(digest);
     counts_.messages += messages;
     counts_.events += events;

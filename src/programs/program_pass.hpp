@@ -12,7 +12,9 @@
 // its event and the message: the same on every thread count.
 // Trade-off: one process only for now (the pass refuses a distributed run:
 // ghosts would need the programs' magnets and messages exchanged); neighbours
-// by a sorted cell list of the catoms each step, O(N log N).
+// found afresh each step from a cell list of the catoms (a dense grid, O(N)),
+// kept as catom indices, and handed to a handler with their directions only
+// when it runs: 24 bytes a catom a step instead of 40 a neighbour.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -47,15 +49,29 @@ public:
 
 private:
     void find_neighbours(const World& world);
+    void neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
 
     const Scene& scene_;
     Execution& exec_;
     const ProgramSpec* spec_;
-    double reach_;
-    std::vector<std::uint32_t> ids_;  // catom gids, ascending
+    double reach_, edge_ = 0;
+    std::vector<std::uint32_t> ids_;     // catom gids, ascending
+    std::vector<std::uint32_t> locals_;  // their local indices (one process: fixed)
     std::vector<Catom> catoms_;
+    // Neighbours as catom indices, this step's and last step's (CSR: the
+    // neighbours of catom k are ids[at[k] .. at[k + 1]), ascending).
+    struct Csr {
+        std::vector<std::uint32_t> at, ids;
+    } now_, before_;
+    // The cell list of this step: a dense grid over the catoms' bounding box
+    // (cell starts into `order`), or, when that would hold more than 8 cells
+    // a catom, the catoms sorted by cell key.
+    std::vector<std::uint32_t> start_, order_;
+    std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
+    Vec3 low_{0, 0, 0};
+    std::int64_t dims_[3] = {0, 0, 0};
     long step_ = 0;
     ProgramCounts counts_;
 };
