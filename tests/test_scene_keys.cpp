@@ -124,6 +124,7 @@ SceneText base_for(const std::string& table) {
             .add("[[joints]]", {"name = \"w\"", "type = \"hinge2\"", "bodies = [\"chassis\", \"wheel\"]"})
             .add("[controller]", {"drive = [\"w\"]"});
     }
+    if (table == "program") return with_catoms().add("[program]", {"name = \"gradient\""});
     if (table == "[[checks.position]]") return with_catoms().add("[[checks.position]]", {"body = 0", "max = 1.0"});
     return with_catoms().add(header_of(table));  // solver, solver.auto_disable, planes, statics, magnets, guard, checks, parallel, run
 }

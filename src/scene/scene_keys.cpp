@@ -169,7 +169,7 @@ std::vector<SceneKey> build() {
          integer("max_messages").in(0, 1e6).def(ProgramScene{}.max_messages).means("messages a catom may send a step"),
          num("reach").unit("m").in(-1, 1e6).def("magnets.cutoff, else radius / 10")
              .means("how far beyond the two radii a catom sees neighbours"),
-         table("params").def("none").means("numbers the program reads by name")});
+         K("params", "table of numbers").def("none").means("any names: numbers the program reads by name")});
     add(out, "[[materials]]",
         {str("name").range("non-empty, unique").def("required").means("what bodies, statics, planes and catoms name"),
          num("mu").in(0, kInf).def(mat.mu).means("Coulomb friction"),
