@@ -13,8 +13,9 @@ against an independent answer computed here from the run's own positions:
 - the same state hash on 1 and 2 threads, and another one than without the
   program (its state is hashed);
 - bad programs: an unknown name, a library that does not load or lacks the
-  entry point, a handler that throws, a sender past its budget: exit 9 with
-  the catom, the event and the reason.
+  entry point, a handler that throws, a message to a catom that is not a
+  neighbour (from a library built here), a sender past its budget: exit 9
+  with the catom, the event and the reason.
 Usage: test_programs.py PARODE SOURCE [unittest args]
 """
 import collections
@@ -188,6 +189,30 @@ class BadPrograms(unittest.TestCase):
     def test_handler_that_throws_names_catom_and_event(self):
         err = self.failure('[program]\nname = "sculpt"')
         self.assertIn("catom 0, event start: program.params.radius must be a positive number", err)
+
+    def test_message_to_a_non_neighbour(self):
+        # A program library built here, as a user would, that writes to a catom far away.
+        source = """#include <programs/program.hpp>
+namespace {
+class Far final : public parode::CatomProgram {
+public:
+    void on_start(parode::CatomContext& c) override { if (c.id() == 3) c.send(500, {7, 0, 0, 0}); }
+};
+}
+PARODE_PROGRAM_ENTRY {
+    static const parode::ProgramSpec s{"far", {}, [] { return std::make_unique<Far>(); }};
+    return &s;
+}
+"""
+        with tempfile.TemporaryDirectory() as d:
+            cpp, lib = os.path.join(d, "far.cpp"), os.path.join(d, "far.so")
+            with open(cpp, "w") as f:
+                f.write(source)
+            cxx = os.environ.get("CXX", "c++")
+            subprocess.run([cxx, "-std=c++17", "-shared", "-fPIC", "-fvisibility=hidden", "-I",
+                            os.path.join(SOURCE, "src"), "-o", lib, cpp], check=True, timeout=120)
+            err = self.failure(f'[program]\nname = "{lib}"')
+            self.assertIn("catom 3, event start: a message to catom 500, not a neighbour", err)
 
     def test_sender_past_its_budget(self):
         err = self.failure('[program]\nname = "gradient"\nmax_messages = 1\n[program.params]\nseed = 0')
