@@ -158,19 +158,12 @@ int run_command(const RunArgs& a) {
     opt.invariants_every = a.check_every;
     opt.restart_path = a.restart;
     opt.domain = procs.size() > 1 ? "mpi" : "single";
-    if (scene.program.enabled && (!a.checkpoint.empty() || !a.restart.empty())) {
-        throw std::invalid_argument(std::string(a.restart.empty() ? "--checkpoint" : "--restart") +
-                                    " with a [program]: checkpoints do not hold the catom programs' state yet; "
-                                    "run the program without checkpoints");
-    }
     Pipeline pipeline(scene, opt);
     const Interrupts interrupts;
     const auto t0 = std::chrono::steady_clock::now();
     const bool stopped = run_steps(a, steps, pipeline, interrupts, procs.root());
     pipeline.finish();
-    // Not for a program's run: its checkpoint would lose the programs' state.
-    const std::string checkpoint =
-        stopped && a.checkpoint.empty() && !scene.program.enabled ? scene.name + "-interrupted.ckpt" : a.checkpoint;
+    const std::string checkpoint = stopped && a.checkpoint.empty() ? scene.name + "-interrupted.ckpt" : a.checkpoint;
     if (!checkpoint.empty()) pipeline.write_checkpoint(checkpoint);
     RunInfo info{a.scene, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
     nlohmann::json report = make_report(scene, pipeline, info);

@@ -155,6 +155,27 @@ class Programs(unittest.TestCase):
             with open(os.path.join(d, "g.xdmf")) as f:
                 self.assertIn('Attribute Name="program_hops"', f.read())
 
+    def test_checkpoint_restarts_the_programs_exactly(self):
+        for name, params in (("gradient", "seed = 0"), ("wave", "seed = 100")):
+            with self.subTest(program=name), tempfile.TemporaryDirectory() as d:
+                scene = scene_with(f'[program]\nname = "{name}"\n[program.params]\n{params}', d)
+                common = ["--set", "catoms.count=512"]
+                full = run(scene, d, "--steps", "30", *common)[0]
+                ckpt = os.path.join(d, "c.ckpt")
+                run(scene, d, "--steps", "12", "--checkpoint", ckpt, *common)
+                again = run(scene, d, "--steps", "18", "--restart", ckpt, *common)[0]
+                self.assertEqual(again["state_hash"], full["state_hash"])
+                self.assertEqual(again["program"]["values"], full["program"]["values"])
+                self.assertEqual(again["program"]["messages"], full["program"]["messages"])
+                self.assertTrue(again["restart"]["checked"]["program_state"])
+                with open(ckpt, "r+b") as f:  # the programs' state is the file's last section
+                    f.seek(-3, os.SEEK_END)
+                    byte = f.read(1)
+                    f.seek(-3, os.SEEK_END)
+                    f.write(bytes([byte[0] ^ 0x10]))
+                err = run(scene, d, "--steps", "1", "--restart", ckpt, *common, expect=8)
+                self.assertIn("the catom programs' state", err)
+
     def test_same_hash_on_any_thread_count_and_hashed_state(self):
         with tempfile.TemporaryDirectory() as d:
             plain = run(PRISM, d, "--steps", "30", "--set", "catoms.count=512")[0]["state_hash"]

@@ -187,7 +187,11 @@ CheckpointCost& CheckpointCost::operator+=(const CheckpointCost& o) {
 }
 
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
-                                const std::vector<WarmImpulse>* warm, nlohmann::json meta) {
+                                const std::vector<WarmImpulse>* warm, nlohmann::json meta,
+                                const std::vector<char>* extra) {
+    if (extra && !extra->empty() && domain.ranks() > 1) {
+        throw std::logic_error("a checkpoint's extra section is written by one process only");
+    }
     const auto start = std::chrono::steady_clock::now();
     FilePieces f;
     f.record = kRecordBytes;
@@ -222,6 +226,10 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     std::vector<std::string> hex;
     for (std::uint64_t s : sums) hex.push_back(hex64(s));
     meta["checksums"] = {{"algorithm", "XXH3_64bits"}, {"record_block", kRecordSumBlock}, {"records", hex}};
+    if (extra && !extra->empty()) {
+        meta["extra"] = {{"bytes", extra->size()}, {"xxh3", hex64(XXH3_64bits(extra->data(), extra->size()))}};
+        f.tail.insert(f.tail.end(), extra->begin(), extra->end());  // after this process's (all the) impulses
+    }
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);
     if (domain.root()) f.head = head;
@@ -244,7 +252,8 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     if (!failed.empty()) throw OutputError(failed);
     cost[1] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     domain.max(cost, 2);
-    return {1, cost[1], cost[0], f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes};
+    return {1, cost[1], cost[0],
+            f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes + (extra ? extra->size() : 0)};
 }
 
 namespace {
@@ -301,7 +310,8 @@ Checkpoint read_checkpoint(const std::string& path) {
     }
     in.seekg(0, std::ios::end);
     const auto size = static_cast<std::uint64_t>(in.tellg());
-    const std::uint64_t want = c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes;
+    const std::uint64_t extra = c.meta.contains("extra") ? c.meta["extra"].value("bytes", std::uint64_t{0}) : 0;
+    const std::uint64_t want = c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes + extra;
     if (size != want) {
         damaged(path, "truncated or extended: " + std::to_string(size) + " bytes, expected " + std::to_string(want));
     }
@@ -439,6 +449,20 @@ nlohmann::json verify_checkpoint(const Checkpoint& c, std::vector<std::uint64_t>
     if (domain.sum(std::int64_t{problem.empty() ? 0 : 1}) > 0) damaged(c.path, domain.all_text(problem, "; "));
     return {{"verified", true}, {"algorithm", "XXH3_64bits"}, {"header", true}, {"record_blocks", sums.size()},
             {"impulse_pieces", pieces.size()}};
+}
+
+std::vector<char> read_extra(const Checkpoint& c) {
+    if (!c.meta.contains("extra")) return {};
+    const std::uint64_t n = c.meta.at("extra").at("bytes").get<std::uint64_t>();
+    std::vector<char> out(static_cast<std::size_t>(n));
+    std::ifstream in(c.path, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes));
+    in.read(out.data(), static_cast<std::streamsize>(n));
+    const std::string want = c.meta.at("extra").value("xxh3", std::string("?"));
+    const std::string got = in ? hex64(XXH3_64bits(out.data(), out.size())) : std::string("(truncated)");
+    if (got != want) damaged(c.path, "the catom programs' state (" + std::to_string(n) + " bytes): checksum " + got +
+                                         ", written " + want);
+    return out;
 }
 
 }  // namespace parode

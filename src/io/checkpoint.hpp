@@ -83,8 +83,14 @@ struct CheckpointCost {
 
 // Collective: writes every process's owned bodies and impulses, with `meta`
 // (the root's) completed by counts. Throws std::runtime_error naming the file.
+// `extra`: a section of one process's run written after the impulses (the
+// catom programs' state), with its own XXH3 in the head; one process only.
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
-                      const std::vector<WarmImpulse>* warm, nlohmann::json meta);
+                      const std::vector<WarmImpulse>* warm, nlohmann::json meta,
+                      const std::vector<char>* extra = nullptr);
+// That section, its checksum checked (CheckpointError if it differs); empty
+// when the checkpoint has none.
+std::vector<char> read_extra(const Checkpoint& c);
 // The header of a checkpoint, its checksum checked. Throws CheckpointError
 // naming the file and what is wrong with it (std::invalid_argument when it
 // cannot be opened).

@@ -25,6 +25,14 @@ void save_int(std::vector<unsigned char>& out, std::int64_t v) {
     out.insert(out.end(), b, b + sizeof v);
 }
 
+// Word k of what save_int wrote.
+std::int64_t load_int(const std::vector<unsigned char>& in, std::size_t k) {
+    if (in.size() < (k + 1) * sizeof(std::int64_t)) throw ProgramError("saved state cut short");
+    std::int64_t v;
+    std::memcpy(&v, in.data() + k * sizeof v, sizeof v);
+    return v;
+}
+
 std::uint32_t seed_of(const CatomContext& c) {
     const double s = c.param("seed", 0);
     if (!(s >= 0) || s != std::floor(s)) throw ProgramError("program.params.seed must be a catom id");
@@ -53,6 +61,11 @@ public:
         save_int(out, hops_);
         save_int(out, from_);
         save_int(out, pending_);
+    }
+    void load(const std::vector<unsigned char>& in) override {
+        hops_ = load_int(in, 0);
+        from_ = static_cast<std::uint32_t>(load_int(in, 1));
+        pending_ = load_int(in, 2) != 0;
     }
 
 private:
@@ -91,6 +104,7 @@ public:
         if (!heard_) pass_on(c, m.from, false);
     }
     void save(std::vector<unsigned char>& out) const override { save_int(out, heard_); }
+    void load(const std::vector<unsigned char>& in) override { heard_ = load_int(in, 0) != 0; }
 
 private:
     void pass_on(CatomContext& c, std::uint32_t from, bool seed) {

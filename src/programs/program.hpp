@@ -20,6 +20,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -89,8 +90,13 @@ public:
     virtual void on_neighbour_lost(CatomContext& /*c*/, std::uint32_t /*id*/) {}
     virtual void on_message(CatomContext& /*c*/, const CatomMessage& /*m*/) {}
     virtual void on_timer(CatomContext& /*c*/) {}
-    // The program's own state as bytes, hashed into the run's state hash.
+    // The program's own state as bytes, hashed into the run's state hash and
+    // written to checkpoints; load() takes them back on a restart (a program
+    // that saves bytes must load them: the default refuses any).
     virtual void save(std::vector<unsigned char>& /*out*/) const {}
+    virtual void load(const std::vector<unsigned char>& bytes) {
+        if (!bytes.empty()) throw std::runtime_error("the program saves state but has no load() to restore it");
+    }
 };
 
 // A program: its name, the names of its values (up to kProgramValues) and a

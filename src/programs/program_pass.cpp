@@ -353,4 +353,128 @@ void ProgramPass::apply(World& world, double time) {
     counts_.seconds += now_seconds() - t0;
 }
 
+namespace {
+
+// Plain values appended to and read from a byte buffer.
+class Bytes {
+public:
+    explicit Bytes(std::vector<char>& out) : out_(&out) {}
+    Bytes(const std::vector<char>& in, std::size_t at) : in_(&in), at_(at) {}
+    template <class T>
+    void put(const T& v) {
+        const char* p = reinterpret_cast<const char*>(&v);
+        out_->insert(out_->end(), p, p + sizeof v);
+    }
+    void put_bytes(const void* p, std::size_t n) {
+        put(static_cast<std::uint64_t>(n));
+        const char* c = static_cast<const char*>(p);
+        out_->insert(out_->end(), c, c + n);
+    }
+    template <class T>
+    T get() {
+        need(sizeof(T));
+        T v;
+        std::memcpy(&v, in_->data() + at_, sizeof v);
+        at_ += sizeof v;
+        return v;
+    }
+    std::vector<unsigned char> get_bytes() {
+        const auto n = static_cast<std::size_t>(get<std::uint64_t>());
+        need(n);
+        std::vector<unsigned char> v(in_->begin() + static_cast<std::ptrdiff_t>(at_),
+                                     in_->begin() + static_cast<std::ptrdiff_t>(at_ + n));
+        at_ += n;
+        return v;
+    }
+    bool done() const { return at_ == in_->size(); }
+
+private:
+    void need(std::size_t n) const {
+        if (at_ + n > in_->size()) throw CheckpointError("the catom programs' state in the checkpoint is cut short");
+    }
+    std::vector<char>* out_ = nullptr;
+    const std::vector<char>* in_ = nullptr;
+    std::size_t at_ = 0;
+};
+
+}  // namespace
+
+std::vector<char> ProgramPass::save_state() const {
+    std::vector<char> out;
+    Bytes b(out);
+    b.put(static_cast<std::uint64_t>(ids_.size()));
+    b.put(static_cast<std::int64_t>(step_));
+    b.put(counts_.steps);
+    b.put(counts_.messages);
+    b.put(counts_.events);
+    std::vector<unsigned char> bytes;
+    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+        const Catom& c = catoms_[k];
+        b.put(c.values);
+        b.put(static_cast<std::uint8_t>(c.magnets));
+        b.put(static_cast<std::uint8_t>(c.started));
+        b.put(c.timer_at);
+        b.put(static_cast<std::uint64_t>(c.inbox.size()));
+        for (const CatomMessage& m : c.inbox) {
+            b.put(m.from);
+            b.put(m.data);
+        }
+        bytes.clear();
+        c.program->save(bytes);
+        b.put_bytes(bytes.data(), bytes.size());
+        const std::uint32_t n0 = now_.at[k], n1 = now_.at[k + 1];
+        b.put_bytes(now_.ids.data() + n0, sizeof(std::uint32_t) * (n1 - n0));
+    }
+    return out;
+}
+
+void ProgramPass::load_state(World& world, const std::vector<char>& state) {
+    Bytes b(state, 0);
+    if (b.get<std::uint64_t>() != ids_.size()) {
+        throw CheckpointError("the catom programs' state in the checkpoint is for another number of catoms");
+    }
+    step_ = static_cast<long>(b.get<std::int64_t>());
+    counts_.steps = b.get<std::uint64_t>();
+    counts_.messages = b.get<std::uint64_t>();
+    counts_.events = b.get<std::uint64_t>();
+    now_.at.assign(ids_.size() + 1, 0);
+    now_.ids.clear();
+    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+        Catom& c = catoms_[k];
+        c.values = b.get<std::array<double, kProgramValues>>();
+        c.magnets = b.get<std::uint8_t>() != 0;
+        c.started = b.get<std::uint8_t>() != 0;
+        c.timer_at = b.get<double>();
+        c.inbox.resize(static_cast<std::size_t>(b.get<std::uint64_t>()));
+        for (CatomMessage& m : c.inbox) {
+            m.from = b.get<std::uint32_t>();
+            m.data = b.get<std::array<std::int64_t, 4>>();
+        }
+        try {
+            c.program->load(b.get_bytes());
+        } catch (const std::exception& e) {
+            throw ProgramError("program " + spec_->name + ", catom " + std::to_string(ids_[k]) + ", restoring: " + e.what());
+        }
+        const std::vector<unsigned char> nbrs = b.get_bytes();
+        const std::size_t count = nbrs.size() / sizeof(std::uint32_t);
+        now_.ids.resize(now_.ids.size() + count);
+        std::memcpy(now_.ids.data() + now_.ids.size() - count, nbrs.data(), nbrs.size());
+        now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
+    }
+    if (!b.done()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
+    if (locals_.empty()) {
+        for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
+    }
+    std::uint64_t digest = 0;
+    std::vector<unsigned char> bytes;
+    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+        world.switch_magnets(ids_[k], catoms_[k].magnets);
+        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
+            world.set_program_value(locals_[k], static_cast<int>(v), catoms_[k].values[v]);
+        }
+        digest += catom_digest(ids_[k], catoms_[k], bytes);
+    }
+    world.set_program_digest(digest);
+}
+
 }  // namespace parode

@@ -10,6 +10,7 @@
 // Errors (a handler's exception, a message to a non-neighbour, a sender past
 // its budget) end the run with a ProgramError naming the lowest such catom,
 // its event and the message: the same on every thread count.
+// Its whole state goes into checkpoints (save_state / load_state).
 // Trade-off: one process only for now (the pass refuses a distributed run:
 // ghosts would need the programs' magnets and messages exchanged); neighbours
 // found afresh each step from a cell list of the catoms (a dense grid, O(N)),
@@ -40,6 +41,13 @@ public:
     std::string name() const override { return "program:" + spec_->name; }
     void apply(World& world, double time) override;
     const ProgramCounts& counts() const { return counts_; }
+    // Everything the next step depends on (each catom's values, magnets,
+    // timer, pending messages, program bytes and last neighbours; the step
+    // and counts), for checkpoints; load_state takes it back (and sets the
+    // world's magnet switches and values). Throws CheckpointError if it does
+    // not fit this scene.
+    std::vector<char> save_state() const;
+    void load_state(World& world, const std::vector<char>& state);
     const ProgramSpec& spec() const { return *spec_; }
     // Catom gids in order, and value k of each (after the last step).
     const std::vector<std::uint32_t>& catoms() const { return ids_; }

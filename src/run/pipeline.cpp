@@ -49,6 +49,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     if (checkpoint_) restore(gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled) make_force_passes();
+    if (checkpoint_ && program_) restore_program();
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
 #ifdef NDEBUG
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
@@ -82,7 +83,7 @@ void Pipeline::make_force_passes() {
     const ForceRegistry& r = Stages::instance().forces;
     if (scene_.program.enabled) {
         forces_.push_back(r.make("program", scene_, *exec_));
-        program_ = dynamic_cast<const ProgramPass*>(forces_.back().get());
+        program_ = dynamic_cast<ProgramPass*>(forces_.back().get());
     }
     if (scene_.any_magnets()) forces_.push_back(r.make(Stages::threaded(r, "magnets"), scene_, *exec_));
     if (scene_.controller.enabled) forces_.push_back(r.make(Stages::threaded(r, "controller"), scene_, *exec_));
@@ -139,6 +140,16 @@ void Pipeline::restore(const std::vector<std::uint32_t>& gids) {
     restart_meta_ = m;
 }
 
+// The catom programs' state, from the checkpoint's extra section.
+void Pipeline::restore_program() {
+    const std::vector<char> state = read_extra(*checkpoint_);
+    if (state.empty()) {
+        throw CheckpointError(checkpoint_->path + ": holds no catom programs' state (written without a [program]?)");
+    }
+    program_->load_state(*world_, state);
+    if (checked_.is_object() && checked_.value("verified", false)) checked_["program_state"] = true;  // read_extra checked it
+}
+
 std::string Pipeline::restart_caveat() const {
     if (inexact_ > 0) return std::to_string(inexact_) + " bodies could not be given their exact quaternion";
     if (scene_.solver.auto_disable) {
@@ -172,7 +183,8 @@ void Pipeline::write_checkpoint(const std::string& path) {
                                  {"scene", scene_.name}, {"scene_file", scene_.source},
                                  {"scene_digest", hex64(scene_.digest)}, {"seed", scene_.seed},
                                  {"drand_seed", world_->drand_seed()}, {"solver", solver_->name()}, {"run", run}};
-    checkpoint_cost_ += parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta);
+    const std::vector<char> programs = program_ ? program_->save_state() : std::vector<char>();
+    checkpoint_cost_ += parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta, &programs);
 }
 
 const Substages* Pipeline::substages(Stage s) const {

@@ -135,6 +135,7 @@ private:
     void open_checkpoint(const std::string& path);
     std::vector<std::uint32_t> restart_bodies();
     void restore(const std::vector<std::uint32_t>& gids);
+    void restore_program();
     std::unique_ptr<Checkpoint> checkpoint_;  // a restart's, until the steps begin
     nlohmann::json checked_;                  // what the restart verified of it
     CheckpointCost checkpoint_cost_;
@@ -159,7 +160,7 @@ private:
     std::unique_ptr<World> world_;
     std::unique_ptr<SolverBackend> solver_;
     std::vector<std::unique_ptr<ForcePass>> forces_;
-    const ProgramPass* program_ = nullptr;
+    ProgramPass* program_ = nullptr;
     Substages force_times_;  // per force pass
     ContactBuffer contacts_;
     std::array<StageState, kStageCount> stages_;
