@@ -167,6 +167,9 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     }
     const double r = ids_.empty() ? 0.0 : catom_radius(scene, ids_.front());
     reach_ = scene.program.reach >= 0 ? scene.program.reach : scene.magnets.enabled ? scene.magnets.cutoff : 0.1 * r;
+    double rmax = 0;  // the scene's radii: the cell edge is fixed for the run
+    for (std::uint32_t g : ids_) rmax = std::max(rmax, catom_radius(scene, g));
+    edge_ = 2 * rmax + reach_;
     catoms_.resize(ids_.size());
     now_.at.assign(ids_.size() + 1, 0);
     for (std::size_t k = 0; k < ids_.size(); ++k) {
@@ -178,6 +181,12 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
 
 ProgramPass::~ProgramPass() = default;
 
+// The catoms' local indices, once (one process: they never move).
+void ProgramPass::bind(const World& world) {
+    if (!locals_.empty()) return;
+    for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
+}
+
 double ProgramPass::value(std::size_t catom, int k) const { return catoms_[catom].values.at(static_cast<std::size_t>(k)); }
 
 // Centres in a cell list of edge 2 r_max + reach: a dense grid over the
@@ -186,12 +195,7 @@ double ProgramPass::value(std::size_t catom, int k) const { return catoms_[catom
 // around its own. Chunks of catoms fill their own lists, joined in order.
 void ProgramPass::find_neighbours(const World& world) {
     const std::size_t n = ids_.size();
-    if (locals_.empty()) {
-        for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
-    }
-    double rmax = 0;
-    for (std::uint32_t g : ids_) rmax = std::max(rmax, catom_radius(scene_, g));
-    edge_ = 2 * rmax + reach_;
+    bind(world);
     std::vector<Vec3> x(n);
     Vec3 high{-1e300, -1e300, -1e300};
     low_ = {1e300, 1e300, 1e300};
@@ -462,9 +466,7 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
         now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
     }
     if (!b.done()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
-    if (locals_.empty()) {
-        for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
-    }
+    bind(world);
     std::uint64_t digest = 0;
     std::vector<unsigned char> bytes;
     for (std::size_t k = 0; k < catoms_.size(); ++k) {

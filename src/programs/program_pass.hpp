@@ -56,6 +56,7 @@ public:
     struct Catom;  // per catom: program, neighbours, mail, values (program_pass.cpp)
 
 private:
+    void bind(const World& world);
     void find_neighbours(const World& world);
     void neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
