@@ -110,3 +110,16 @@ TEST(Execution, RegistryAliasesNameTheSameStages) {
 }
 
 }  // namespace
+
+// The sharing rule scales with the team: the waits measured on an idle
+// 16-core virtual machine at 10^6 catoms (0.38 ms of work, 1.7 ms waited at a
+// colour barrier; over the call 19.6 ms of work, 20.6 ms waited) are ordinary
+// for 16 threads, while the same figures on 2 threads mean a core is taken;
+// a thread descheduled for a time slice at every colour means one on 16 too.
+TEST(Team, SharingRuleScalesWithTheTeam) {
+    EXPECT_FALSE(barrier_says_shared(0.38e-3, 1.7e-3, 19.6e-3, 20.6e-3, 16));
+    EXPECT_TRUE(barrier_says_shared(0.38e-3, 1.7e-3, 19.6e-3, 20.6e-3, 2));
+    EXPECT_TRUE(barrier_says_shared(0.4e-3, 8e-3, 4e-3, 80e-3, 16));
+    EXPECT_FALSE(barrier_says_shared(0.4e-3, 0.9e-3, 0.4e-3, 0.9e-3, 2));  // under 1 ms: a slow wake-up
+    EXPECT_FALSE(barrier_says_shared(0.4e-3, 8e-3, 4e-3, 80e-3, 1));        // one thread waits for no one
+}

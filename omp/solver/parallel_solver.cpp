@@ -5,6 +5,7 @@
 #include <atomic>
 #include <exception>
 
+#include "exec/team.hpp"
 #include "omp/runtime/task_split.hpp"
 #include "util/substages.hpp"
 
@@ -13,24 +14,6 @@
 #endif
 
 namespace parode::omp {
-namespace {
-
-// A thread waited at a barrier longer than it worked on the colour before it,
-// and long enough to be a descheduled thread rather than a slow wake-up or an
-// uneven split (1 ms; a time slice is several): threads cost more than they
-// give.
-bool descheduled(double work, double wait) { return wait > 1e-3 && wait > work; }
-
-// Such a wait counts only when the thread has also waited longer than it
-// worked over the whole call so far: at 10^6 catoms a colour is milliseconds
-// of work and the kernel's own noise (a few ms now and then, measured on an
-// otherwise idle machine) is no reason to give up a core for the rest of the
-// step; a process that holds the core makes the waits add up at any size.
-bool gave_up(double work, double wait, double total_work, double total_wait) {
-    return descheduled(work, wait) && total_wait > total_work;
-}
-
-}  // namespace
 
 void ParallelContactSolver::step(World& world, const ContactBuffer& contacts) {
     execution().team().begin_step();
@@ -115,7 +98,7 @@ void ParallelContactSolver::sweep(int passes, bool warm) {
 // every thread goes on with the interior cells, a barrier, the master
 // completes the exchange, a barrier; on one process the colour's cells and a
 // barrier. Steps (colours of all passes) are numbered; a thread that waited too
-// long at the barrier after step k (gave_up) sets `alone_at` to k + 2 (the
+// long at the barrier after step k (barrier_says_shared) sets `alone_at` to k + 2 (the
 // least such value wins). After the barrier of step k - 1 every thread sees every value
 // written before it, and values written after it are at least k + 1, so all
 // threads agree whether step k runs alone: from then on thread 0 runs the
@@ -144,8 +127,9 @@ bool ParallelContactSolver::sweep_threaded(int passes, bool warm, int team) {
             const PhaseTimes pt = colour_threaded(c, warm, me, stride, failed);
             if (failed) break;
             total_work += pt.work;
+            if (k == 0) continue;  // the first barrier also waits for the threads to wake up
             total_wait += pt.wait;
-            if (gave_up(pt.work, pt.wait, total_work, total_wait)) {
+            if (barrier_says_shared(pt.work, pt.wait, total_work, total_wait, team)) {
                 long want = k + 2, have = alone_at.load(std::memory_order_relaxed);
                 while (want < have && !alone_at.compare_exchange_weak(have, want, std::memory_order_release)) {
                 }

@@ -20,6 +20,12 @@ int Team::sweep_threads(std::size_t items, std::size_t crossover) const {
     return threads_;
 }
 
+bool barrier_says_shared(double work, double wait, double total_work, double total_wait, int team) {
+    if (team <= 1) return false;  // no one to wait for
+    const double others = static_cast<double>(team - 1);
+    return wait > 1e-3 && wait > others * work && total_wait > others * total_work;
+}
+
 void Team::verdict(bool shared) {
     if (!shared || !adaptive_) {
         shared_ = false;

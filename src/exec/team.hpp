@@ -8,10 +8,11 @@
 // - Sharing: when another process holds one of our cores, every barrier waits
 //   for a thread the kernel has descheduled. The threaded sweeps of the
 //   contact solver time their threads' work and waits at every colour
-//   barrier; when a thread waits over a millisecond and longer than it worked
-//   (and, over the sweep call so far, has waited longer than it worked: a
-//   single wait is as likely the kernel's noise), the rest of the step's
-//   sweeps run on one thread, and so do all other stages from then on. On a
+//   barrier; when a thread waits over a millisecond and so long that one
+//   thread doing the whole team's work would have been done sooner (and the
+//   same holds for its waits over the sweep call so far: a single wait is as
+//   likely the kernel's noise), the rest of the step's sweeps run on one
+//   thread, and so do all other stages from then on (barrier_says_shared). On a
 //   distributed run the wait for the other processes' corrections after each
 //   colour is not counted: it is their pace, not a core taken from this one.
 //   Only the solver's iterations try threads again, on a later step (after
@@ -26,6 +27,19 @@
 #include <cstddef>
 
 namespace parode {
+
+// The sharing rule of one thread of a team of `team` at a barrier: it worked
+// `work` seconds and then waited `wait` for the others; over the call so far
+// `total_work` and `total_wait`. Shared when the wait is over 1 ms (a
+// descheduled thread, not a slow wake-up or an uneven split: a time slice is
+// several) and exceeds the other threads' work, estimated as (team - 1) times
+// its own, and the totals do too: then one thread alone would have finished
+// sooner. On two threads that is a wait longer than the work; on sixteen,
+// fifteen times the work, because there waits as long as the work are
+// ordinary (0.4 ms of work a colour a thread at 10^6 catoms, and a barrier of
+// 16 threads in a virtual machine costs as much): the rule of two threads
+// applied to sixteen sent a third of the 16-thread runs to one thread.
+bool barrier_says_shared(double work, double wait, double total_work, double total_wait, int team);
 
 class Team {
 public:
