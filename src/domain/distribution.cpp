@@ -13,7 +13,6 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
     const std::string one = "; run it as one process (without mpirun), with threads";
     if (!sc.joints.empty()) return refuse(why + "a contact-only scene, and this one has joints" + one);
     if (sc.controller.enabled) return refuse(why + "a contact-only scene, and this one has a [controller]" + one);
-    if (sc.program.enabled) return refuse(why + "no [program] (catom programs run on one process for now)" + one);
     if (sc.solver.auto_disable) return refuse(why + "solver.auto_disable off (sleeping bodies need ODE's islands)" + one);
     if (solver != "parallel" && solver != "pgs") {
         return refuse("--solver " + solver + " runs ODE's stepper, which needs every body in one process; "
@@ -28,6 +27,12 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
                           std::to_string(cell_edge) + " m): it must be at most 2 r_max = " +
                           std::to_string(2 * rmax) + " m" + one);
         }
+    }
+    if (sc.program.enabled && sc.program_range() > cell_edge) {
+        return refuse(sc.source + ": program.reach = " + std::to_string(sc.program_range() - 2 * sc.max_bounding_radius()) +
+                      " m reaches past the ghost halo of a distributed run (one cell of " + std::to_string(cell_edge) +
+                      " m): a catom's neighbours must lie within 2 r_max = " + std::to_string(2 * sc.max_bounding_radius()) +
+                      " m of its surface" + one);
     }
     return {};
 }

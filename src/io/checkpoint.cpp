@@ -189,9 +189,6 @@ CheckpointCost& CheckpointCost::operator+=(const CheckpointCost& o) {
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                                 const std::vector<WarmImpulse>* warm, nlohmann::json meta,
                                 const std::vector<char>* extra) {
-    if (extra && !extra->empty() && domain.ranks() > 1) {
-        throw std::logic_error("a checkpoint's extra section is written by one process only");
-    }
     const auto start = std::chrono::steady_clock::now();
     FilePieces f;
     f.record = kRecordBytes;
@@ -228,7 +225,9 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     meta["checksums"] = {{"algorithm", "XXH3_64bits"}, {"record_block", kRecordSumBlock}, {"records", hex}};
     if (extra && !extra->empty()) {
         meta["extra"] = {{"bytes", extra->size()}, {"xxh3", hex64(XXH3_64bits(extra->data(), extra->size()))}};
-        f.tail.insert(f.tail.end(), extra->begin(), extra->end());  // after this process's (all the) impulses
+        // The same bytes on every process; the last one writes them, after
+        // every process's impulses.
+        if (domain.rank() == domain.ranks() - 1) f.tail.insert(f.tail.end(), extra->begin(), extra->end());
     }
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);

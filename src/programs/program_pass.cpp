@@ -1,4 +1,6 @@
-// The catom programs' pass (see program_pass.hpp).
+// The catom programs' pass: neighbours, handlers and the step's end (see
+// program_pass.hpp; the exchanges between processes and checkpoints are in
+// program_state.cpp).
 #include "programs/program_pass.hpp"
 
 #include <algorithm>
@@ -6,22 +8,13 @@
 #include <cstring>
 #include <exception>
 
+#include "programs/catom_state.hpp"
 #include "util/errors.hpp"
 #include "util/hash.hpp"
+#include "util/id_map.hpp"
 #include "util/substages.hpp"
 
 namespace parode {
-
-struct ProgramPass::Catom {
-    std::unique_ptr<CatomProgram> program;
-    std::vector<CatomMessage> inbox;                             // to deliver this step
-    std::vector<std::pair<std::uint32_t, CatomMessage>> outbox;  // sent this step: (to, message)
-    std::array<double, kProgramValues> values{};
-    bool magnets = true, started = false;
-    double timer_at = -1;  // negative: no timer
-    std::uint32_t events = 0;
-    std::string error;     // this step's first failure
-};
 
 namespace {
 
@@ -162,16 +155,19 @@ void missing(const std::uint32_t* a0, const std::uint32_t* a1, const std::uint32
 
 ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     : scene_(scene), exec_(exec), spec_(&load_program(scene.program.name)) {
+    kof_.assign(scene.body_count(), IdMap::kNone);
     for (std::size_t g = 0; g < scene.body_count(); ++g) {
-        if (scene.body_is_catom(g)) ids_.push_back(static_cast<std::uint32_t>(g));
+        if (!scene.body_is_catom(g)) continue;
+        kof_[g] = static_cast<std::uint32_t>(ids_.size());
+        ids_.push_back(static_cast<std::uint32_t>(g));
     }
     const double r = ids_.empty() ? 0.0 : catom_radius(scene, ids_.front());
     reach_ = scene.program.reach >= 0 ? scene.program.reach : scene.magnets.enabled ? scene.magnets.cutoff : 0.1 * r;
-    double rmax = 0;  // the scene's radii: the cell edge is fixed for the run
-    for (std::uint32_t g : ids_) rmax = std::max(rmax, catom_radius(scene, g));
-    edge_ = 2 * rmax + reach_;
+    edge_ = scene.program_range();  // the scene's radii: the cell edge is fixed for the run
     catoms_.resize(ids_.size());
-    now_.at.assign(ids_.size() + 1, 0);
+    local_k_.assign(ids_.size(), IdMap::kNone);
+    owned_now_.assign(ids_.size(), 0);
+    current_.assign(ids_.size(), 1);
     for (std::size_t k = 0; k < ids_.size(); ++k) {
         catoms_[k].program = spec_->make();
         if (!catoms_[k].program) throw ProgramError("program " + spec_->name + " made no program object");
@@ -181,28 +177,41 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
 
 ProgramPass::~ProgramPass() = default;
 
-// The catoms' local indices, once (one process: they never move).
-void ProgramPass::bind(const World& world) {
-    if (!locals_.empty()) return;
-    for (std::uint32_t g : ids_) locals_.push_back(world.local_of(g));
+// The catoms held here this step (ascending catom index), their local
+// indices, and the owned ones.
+void ProgramPass::locate(const World& world) {
+    for (std::uint32_t k : present_) local_k_[k] = IdMap::kNone, owned_now_[k] = 0;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> held;
+    held.reserve(world.body_count());
+    for (std::size_t i = 0; i < world.body_count(); ++i) {
+        const std::uint32_t g = world.gid(i);
+        if (g < kof_.size() && kof_[g] != IdMap::kNone) held.emplace_back(kof_[g], static_cast<std::uint32_t>(i));
+    }
+    std::sort(held.begin(), held.end());
+    present_.clear();
+    plocal_.clear();
+    owned_.clear();
+    for (const auto& [k, i] : held) {
+        present_.push_back(k);
+        plocal_.push_back(i);
+        local_k_[k] = i;
+        if (!world.ghost(i)) owned_.push_back(k), owned_now_[k] = 1;
+    }
 }
-
-double ProgramPass::value(std::size_t catom, int k) const { return catoms_[catom].values.at(static_cast<std::size_t>(k)); }
 
 // Centres in a cell list of edge 2 r_max + reach: a dense grid over the
 // bounding box when it has at most 8 cells a catom (counting sort, O(N)),
-// else the catoms sorted by cell key; each catom then looks at the 27 cells
-// around its own. Chunks of catoms fill their own lists, joined in order.
+// else the catoms sorted by cell key; each owned catom then looks at the 27
+// cells around its own. Chunks of catoms fill their own lists, joined in order.
 void ProgramPass::find_neighbours(const World& world) {
-    const std::size_t n = ids_.size();
-    bind(world);
+    const std::size_t n = present_.size();
     std::vector<Vec3> x(n);
     Vec3 high{-1e300, -1e300, -1e300};
     low_ = {1e300, 1e300, 1e300};
-    for (std::size_t k = 0; k < n; ++k) {
-        const dReal* p = dBodyGetPosition(world.body(locals_[k]));
-        x[k] = {p[0], p[1], p[2]};
-        for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[k][a]), high[a] = std::max(high[a], x[k][a]);
+    for (std::size_t j = 0; j < n; ++j) {
+        const dReal* p = dBodyGetPosition(world.body(plocal_[j]));
+        x[j] = {p[0], p[1], p[2]};
+        for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[j][a]), high[a] = std::max(high[a], x[j][a]);
     }
     double cells = 1;
     for (int a = 0; a < 3; ++a) {
@@ -216,51 +225,52 @@ void ProgramPass::find_neighbours(const World& world) {
         start_.assign(static_cast<std::size_t>(cells) + 1, 0);
         order_.resize(n);
         std::vector<std::uint32_t> of(n);
-        for (std::size_t k = 0; k < n; ++k) {
-            of[k] = static_cast<std::uint32_t>((cell(x[k], 0) * dims_[1] + cell(x[k], 1)) * dims_[2] + cell(x[k], 2));
-            ++start_[of[k] + 1];
+        for (std::size_t j = 0; j < n; ++j) {
+            of[j] = static_cast<std::uint32_t>((cell(x[j], 0) * dims_[1] + cell(x[j], 1)) * dims_[2] + cell(x[j], 2));
+            ++start_[of[j] + 1];
         }
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
-        for (std::size_t k = 0; k < n; ++k) order_[fill[of[k]]++] = static_cast<std::uint32_t>(k);
+        for (std::size_t j = 0; j < n; ++j) order_[fill[of[j]]++] = static_cast<std::uint32_t>(j);
     } else {
         sorted_.resize(n);
-        for (std::size_t k = 0; k < n; ++k) {
-            sorted_[k] = {(cell(x[k], 0) << 42) | (cell(x[k], 1) << 21) | cell(x[k], 2), static_cast<std::uint32_t>(k)};
+        for (std::size_t j = 0; j < n; ++j) {
+            sorted_[j] = {(cell(x[j], 0) << 42) | (cell(x[j], 1) << 21) | cell(x[j], 2), static_cast<std::uint32_t>(j)};
         }
         std::sort(sorted_.begin(), sorted_.end());
     }
     std::swap(before_, now_);
     const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
-    now_.at.assign(n + 1, 0);
+    now_.at.assign(ids_.size() + 1, 0);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        for (std::size_t k = chunk_begin(n, chunks, c); k < chunk_begin(n, chunks, c + 1); ++k) {
+        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
+            if (!owned_now_[present_[j]]) continue;
             const std::size_t from = mine.size();
-            neighbours_of(k, x, mine);
-            now_.at[k + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            neighbours_of(j, x, mine);
+            now_.at[present_[j] + 1] = static_cast<std::uint32_t>(mine.size() - from);
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t k = 0; k < n; ++k) now_.at[k + 1] += now_.at[k];
+    for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
     now_.ids.clear();
-    now_.ids.reserve(now_.at[n]);
+    now_.ids.reserve(now_.at[ids_.size()]);
     for (const auto& p : part) now_.ids.insert(now_.ids.end(), p.begin(), p.end());
 }
 
-// Catom k's neighbours (catom indices, ascending) appended to `out`.
-void ProgramPass::neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
+// The neighbours (catom indices, ascending) of held catom j, appended to `out`.
+void ProgramPass::neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
     const std::size_t from = out.size();
-    const double rk = catom_radius(scene_, ids_[k]);
-    const auto take = [&](std::uint32_t j) {
-        if (j == k) return;
-        const double d = std::sqrt((x[j][0] - x[k][0]) * (x[j][0] - x[k][0]) + (x[j][1] - x[k][1]) * (x[j][1] - x[k][1]) +
-                                   (x[j][2] - x[k][2]) * (x[j][2] - x[k][2]));
-        if (d > 0 && d <= rk + catom_radius(scene_, ids_[j]) + reach_) out.push_back(j);
+    const double rj = catom_radius(scene_, ids_[present_[j]]);
+    const auto take = [&](std::uint32_t i) {
+        if (i == j) return;
+        const double d = std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
+                                   (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]));
+        if (d > 0 && d <= rj + catom_radius(scene_, ids_[present_[i]]) + reach_) out.push_back(present_[i]);
     };
     std::int64_t c[3];
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[k][a] - low_[a]) / edge_);
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[j][a] - low_[a]) / edge_);
     for (int d = 0; d < 27; ++d) {
         const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
         if (!start_.empty()) {
@@ -278,22 +288,27 @@ void ProgramPass::neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::
 
 void ProgramPass::run_handlers(const World& world, double time) {
     const bool first = before_.at.empty();
-    for_ranges(exec_.loops(), catoms_.size(), 256, [&](std::size_t k0, std::size_t k1) {
+    for_ranges(exec_.loops(), owned_.size(), 256, [&](std::size_t o0, std::size_t o1) {
         std::vector<std::uint32_t> lost, gained;
         std::vector<Neighbour> nbrs;
-        for (std::size_t k = k0; k < k1; ++k) {
+        for (std::size_t o = o0; o < o1; ++o) {
+            const std::uint32_t k = owned_[o];
             Catom& c = catoms_[k];
             const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
             const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
-            const std::uint32_t* b0 = first ? nullptr : before_.ids.data() + before_.at[k];
-            const std::uint32_t* b1 = first ? nullptr : before_.ids.data() + before_.at[k + 1];
+            const std::uint32_t *b0 = nullptr, *b1 = nullptr;
+            if (const auto a = arrived_.find(k); a != arrived_.end()) {
+                b0 = a->second.data(), b1 = b0 + a->second.size();
+            } else if (!first) {
+                b0 = before_.ids.data() + before_.at[k], b1 = before_.ids.data() + before_.at[k + 1];
+            }
             missing(b0, b1, n0, n1, ids_, lost);
             missing(n0, n1, b0, b1, ids_, gained);
-            dBodyID body = world.body(locals_[k]);
+            dBodyID body = world.body(local_k_[k]);
             const dReal* p = dBodyGetPosition(body);
             nbrs.clear();
             for (const std::uint32_t* j = n0; j != n1; ++j) {
-                const dReal* q = dBodyGetPosition(world.body(locals_[*j]));
+                const dReal* q = dBodyGetPosition(world.body(local_k_[*j]));
                 const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
                 const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
                 nbrs.push_back({ids_[*j], {d[0] / len, d[1] / len, d[2] / len}, len});
@@ -304,179 +319,69 @@ void ProgramPass::run_handlers(const World& world, double time) {
             run_catom(c, ctx, lost, gained, time);
         }
     });
+    arrived_.clear();
 }
 
-// Serially, in id order: the first failure, the magnet switches, the mail
-// for next step (each receiver's inbox in sender order), the counts and the
-// digest.
+// In id order: the mail for next step (each receiver's inbox in sender
+// order), the magnet switches, the first failure (on every process), then
+// the world's values, the counts and the digest.
 void ProgramPass::finish_step(World& world) {
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        if (!catoms_[k].error.empty()) {
-            throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + catoms_[k].error);
-        }
-    }
-    for (Catom& c : catoms_) c.inbox.clear();
-    std::uint64_t digest = 0, events = 0, messages = 0;
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+    for (std::uint32_t k : owned_) catoms_[k].inbox.clear();
+    std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
+    std::vector<std::uint32_t> failed;
+    std::int64_t counted[2] = {0, 0};  // messages, events
+    for (std::uint32_t k : owned_) {
         Catom& c = catoms_[k];
-        world.switch_magnets(ids_[k], c.magnets);
-        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
-            world.set_program_value(locals_[k], static_cast<int>(v), c.values[v]);
-        }
-        for (const auto& [to, m] : c.outbox) {
-            const auto at = std::lower_bound(ids_.begin(), ids_.end(), to);
-            catoms_[static_cast<std::size_t>(at - ids_.begin())].inbox.push_back(m);
-        }
-        messages += c.outbox.size();
-        events += c.events;
+        if (!c.error.empty()) failed.push_back(k);
+        counted[0] += static_cast<std::int64_t>(c.outbox.size());
+        counted[1] += c.events;
         c.events = 0;
     }
-    const std::size_t n = catoms_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
+    exchange_mail(world, out, failed);
+    if (!failed.empty()) {
+        const std::uint32_t k = *std::min_element(failed.begin(), failed.end());
+        throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + catoms_[k].error);
+    }
+    if (distributed()) coll_->sum(counted, 2);
+    counts_.messages += static_cast<std::uint64_t>(counted[0]);
+    counts_.events += static_cast<std::uint64_t>(counted[1]);
+    refresh_world(world);
+    last_owned_ = owned_;
+}
+
+// The owned catoms' values and magnets into the world, and their digest
+// (this process's part of the state hash).
+void ProgramPass::refresh_world(World& world) {
+    for (std::uint32_t k : owned_) {
+        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
+            world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
+        }
+    }
+    const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::uint64_t> sums(chunks, 0);  // modulo 2^64: any grouping gives the same total
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<unsigned char> bytes;
         std::uint64_t sum = 0;
-        for (std::size_t k = chunk_begin(n, chunks, c); k < chunk_begin(n, chunks, c + 1); ++k) {
-            sum += catom_digest(ids_[k], catoms_[k], bytes);
+        for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
+            sum += catom_digest(ids_[owned_[o]], catoms_[owned_[o]], bytes);
         }
         sums[c] = sum;
     });
+    std::uint64_t digest = 0;
     for (std::uint64_t v : sums) digest += v;
     world.set_program_digest(digest);
-    counts_.messages += messages;
-    counts_.events += events;
 }
 
 void ProgramPass::apply(World& world, double time) {
     const double t0 = now_seconds();
+    locate(world);
+    if (distributed()) transfer(world);
     find_neighbours(world);
     run_handlers(world, time);
     finish_step(world);
     ++step_;
     ++counts_.steps;
     counts_.seconds += now_seconds() - t0;
-}
-
-namespace {
-
-// Plain values appended to and read from a byte buffer.
-class Bytes {
-public:
-    explicit Bytes(std::vector<char>& out) : out_(&out) {}
-    Bytes(const std::vector<char>& in, std::size_t at) : in_(&in), at_(at) {}
-    template <class T>
-    void put(const T& v) {
-        const char* p = reinterpret_cast<const char*>(&v);
-        out_->insert(out_->end(), p, p + sizeof v);
-    }
-    void put_bytes(const void* p, std::size_t n) {
-        put(static_cast<std::uint64_t>(n));
-        const char* c = static_cast<const char*>(p);
-        out_->insert(out_->end(), c, c + n);
-    }
-    template <class T>
-    T get() {
-        need(sizeof(T));
-        T v;
-        std::memcpy(&v, in_->data() + at_, sizeof v);
-        at_ += sizeof v;
-        return v;
-    }
-    std::vector<unsigned char> get_bytes() {
-        const auto n = static_cast<std::size_t>(get<std::uint64_t>());
-        need(n);
-        std::vector<unsigned char> v(in_->begin() + static_cast<std::ptrdiff_t>(at_),
-                                     in_->begin() + static_cast<std::ptrdiff_t>(at_ + n));
-        at_ += n;
-        return v;
-    }
-    bool done() const { return at_ == in_->size(); }
-
-private:
-    void need(std::size_t n) const {
-        if (at_ + n > in_->size()) throw CheckpointError("the catom programs' state in the checkpoint is cut short");
-    }
-    std::vector<char>* out_ = nullptr;
-    const std::vector<char>* in_ = nullptr;
-    std::size_t at_ = 0;
-};
-
-}  // namespace
-
-std::vector<char> ProgramPass::save_state() const {
-    std::vector<char> out;
-    Bytes b(out);
-    b.put(static_cast<std::uint64_t>(ids_.size()));
-    b.put(static_cast<std::int64_t>(step_));
-    b.put(counts_.steps);
-    b.put(counts_.messages);
-    b.put(counts_.events);
-    std::vector<unsigned char> bytes;
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        const Catom& c = catoms_[k];
-        b.put(c.values);
-        b.put(static_cast<std::uint8_t>(c.magnets));
-        b.put(static_cast<std::uint8_t>(c.started));
-        b.put(c.timer_at);
-        b.put(static_cast<std::uint64_t>(c.inbox.size()));
-        for (const CatomMessage& m : c.inbox) {
-            b.put(m.from);
-            b.put(m.data);
-        }
-        bytes.clear();
-        c.program->save(bytes);
-        b.put_bytes(bytes.data(), bytes.size());
-        const std::uint32_t n0 = now_.at[k], n1 = now_.at[k + 1];
-        b.put_bytes(now_.ids.data() + n0, sizeof(std::uint32_t) * (n1 - n0));
-    }
-    return out;
-}
-
-void ProgramPass::load_state(World& world, const std::vector<char>& state) {
-    Bytes b(state, 0);
-    if (b.get<std::uint64_t>() != ids_.size()) {
-        throw CheckpointError("the catom programs' state in the checkpoint is for another number of catoms");
-    }
-    step_ = static_cast<long>(b.get<std::int64_t>());
-    counts_.steps = b.get<std::uint64_t>();
-    counts_.messages = b.get<std::uint64_t>();
-    counts_.events = b.get<std::uint64_t>();
-    now_.at.assign(ids_.size() + 1, 0);
-    now_.ids.clear();
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        Catom& c = catoms_[k];
-        c.values = b.get<std::array<double, kProgramValues>>();
-        c.magnets = b.get<std::uint8_t>() != 0;
-        c.started = b.get<std::uint8_t>() != 0;
-        c.timer_at = b.get<double>();
-        c.inbox.resize(static_cast<std::size_t>(b.get<std::uint64_t>()));
-        for (CatomMessage& m : c.inbox) {
-            m.from = b.get<std::uint32_t>();
-            m.data = b.get<std::array<std::int64_t, 4>>();
-        }
-        try {
-            c.program->load(b.get_bytes());
-        } catch (const std::exception& e) {
-            throw ProgramError("program " + spec_->name + ", catom " + std::to_string(ids_[k]) + ", restoring: " + e.what());
-        }
-        const std::vector<unsigned char> nbrs = b.get_bytes();
-        const std::size_t count = nbrs.size() / sizeof(std::uint32_t);
-        now_.ids.resize(now_.ids.size() + count);
-        std::memcpy(now_.ids.data() + now_.ids.size() - count, nbrs.data(), nbrs.size());
-        now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
-    }
-    if (!b.done()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
-    bind(world);
-    std::uint64_t digest = 0;
-    std::vector<unsigned char> bytes;
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        world.switch_magnets(ids_[k], catoms_[k].magnets);
-        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
-            world.set_program_value(locals_[k], static_cast<int>(v), catoms_[k].values[v]);
-        }
-        digest += catom_digest(ids_[k], catoms_[k], bytes);
-    }
-    world.set_program_digest(digest);
 }
 
 }  // namespace parode

@@ -1,27 +1,40 @@
 // The catom programs' pass, the first of the forces stage: each step it finds
-// every catom's neighbours (centres within the two radii plus the reach),
-// runs each catom's handlers — start (first step), neighbours lost, then
-// gained (by id), the messages sent to it the step before (by sender id, then
+// every owned catom's neighbours (centres within the two radii plus the
+// reach, among the catoms this process holds, ghosts included), runs each
+// owned catom's handlers — start (first step), neighbours lost, then gained
+// (by id), the messages sent to it the step before (by sender id, then
 // sending order), its timer — on the run's threads, one catom per call, and
-// then, serially and in id order, switches the magnets the programs asked
-// for (the magnets pass that follows sees them) and files the messages sent
-// for delivery next step. Every catom's values, magnets, timer, pending
-// messages and program bytes go into the state hash.
+// then switches the magnets the programs asked for (the magnets pass that
+// follows sees them) and files the messages sent for delivery next step.
+// Every owned catom's values, magnets, timer, pending messages and program
+// bytes go into the state hash (a sum modulo 2^64 over the processes).
+// On several processes (program_state.cpp): a catom's program state lives
+// with the process that owns the catom and travels with it when it migrates
+// (to the new owner, or to every process when this one no longer holds a
+// copy); messages go to the receiver's owner, magnet switches to every
+// process (each keeps the switches of all catoms, so a ghost that arrives
+// anywhere carries the right magnets), errors to every process; each of the
+// two exchanges of a step is one all-to-all. The order of everything a catom
+// sees is by global id, so every thread and process count gives the same bits.
 // Errors (a handler's exception, a message to a non-neighbour, a sender past
 // its budget) end the run with a ProgramError naming the lowest such catom,
-// its event and the message: the same on every thread count.
-// Its whole state goes into checkpoints (save_state / load_state).
-// Trade-off: one process only for now (the pass refuses a distributed run:
-// ghosts would need the programs' magnets and messages exchanged); neighbours
-// found afresh each step from a cell list of the catoms (a dense grid, O(N)),
-// kept as catom indices, and handed to a handler with their directions only
-// when it runs: 24 bytes a catom a step instead of 40 a neighbour.
+// its event and the message, on every process.
+// Its whole state goes into checkpoints (save_state / load_state), in one
+// format for any number of processes.
+// Trade-off: every process keeps a slot (and a program object) for every
+// catom of the scene, current only for those it owns: simple lookups and a
+// checkpoint of any split, against memory a process that grows with the
+// scene (about 100 bytes a catom); neighbours found afresh each step from a
+// cell list of the catoms (a dense grid, O(N)), kept as catom indices, and
+// handed to a handler with their directions only when it runs.
 #pragma once
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
+#include "domain/collectives.hpp"
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
 #include "programs/program.hpp"
@@ -29,8 +42,8 @@
 namespace parode {
 
 struct ProgramCounts {
-    std::uint64_t steps = 0, messages = 0, events = 0;
-    double seconds = 0;
+    std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: every process's
+    double seconds = 0;                                  // this process's
 };
 
 class ProgramPass final : public ForcePass {
@@ -39,44 +52,68 @@ public:
     ~ProgramPass() override;
     ProgramPass(Scene&&, Execution&) = delete;  // keeps a reference to the scene
     std::string name() const override { return "program:" + spec_->name; }
+    // The run's processes (default: this one alone); kept by reference.
+    void set_collectives(const Collectives& c) { coll_ = &c; }
     void apply(World& world, double time) override;
     const ProgramCounts& counts() const { return counts_; }
     // Everything the next step depends on (each catom's values, magnets,
     // timer, pending messages, program bytes and last neighbours; the step
-    // and counts), for checkpoints; load_state takes it back (and sets the
+    // and counts), for checkpoints: the same bytes on every process
+    // (collective when distributed). load_state takes it back (and sets the
     // world's magnet switches and values). Throws CheckpointError if it does
     // not fit this scene.
     std::vector<char> save_state() const;
     void load_state(World& world, const std::vector<char>& state);
     const ProgramSpec& spec() const { return *spec_; }
-    // Catom gids in order, and value k of each (after the last step).
+    // Catom gids in order, and value k of every catom (after the last step;
+    // collective when distributed).
     const std::vector<std::uint32_t>& catoms() const { return ids_; }
-    double value(std::size_t catom, int k) const;
+    std::vector<double> values_of(int k) const;
 
-    struct Catom;  // per catom: program, neighbours, mail, values (program_pass.cpp)
+    struct Catom;  // per catom: program, mail, values (catom_state.hpp)
 
 private:
-    void bind(const World& world);
+    void locate(const World& world);
+    void transfer(World& world);
     void find_neighbours(const World& world);
-    void neighbours_of(std::size_t k, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
+    void neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
+    void exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed);
+    void refresh_world(World& world);
+    // One catom's record (values, flags, timer, inbox, program bytes, last
+    // neighbours): appended to `out`, or read from `in` at `at` (returns the
+    // offset after it; `nbrs` gets the neighbours).
+    void put_catom(std::size_t k, std::vector<char>& out) const;
+    std::size_t get_catom(std::size_t k, const std::vector<char>& in, std::size_t at, std::vector<std::uint32_t>& nbrs);
+    bool distributed() const { return coll_->distributed(); }
 
     const Scene& scene_;
     Execution& exec_;
     const ProgramSpec* spec_;
+    Collectives single_;
+    const Collectives* coll_ = &single_;
     double reach_, edge_ = 0;
-    std::vector<std::uint32_t> ids_;     // catom gids, ascending
-    std::vector<std::uint32_t> locals_;  // their local indices (one process: fixed)
+    std::vector<std::uint32_t> ids_;  // catom gids, ascending
+    std::vector<std::uint32_t> kof_;  // gid -> catom index (kNone: not a catom)
     std::vector<Catom> catoms_;
-    // Neighbours as catom indices, this step's and last step's (CSR: the
-    // neighbours of catom k are ids[at[k] .. at[k + 1]), ascending).
+    // This step: the catoms held here (ascending catom index) and their local
+    // indices, the owned ones, and each catom's local index (kNone: not held).
+    std::vector<std::uint32_t> present_, plocal_, owned_, local_k_;
+    std::vector<std::uint8_t> owned_now_;  // by catom index
+    std::vector<std::uint8_t> current_;    // by catom index: its state here is current (owned, or none ran yet)
+    std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step
+    // Last step's neighbours of catoms that arrived from another process.
+    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> arrived_;
+    // Neighbours as catom indices, this step's and last step's (CSR over every
+    // catom, empty for those not owned: catom k's are ids[at[k] .. at[k + 1]),
+    // ascending).
     struct Csr {
         std::vector<std::uint32_t> at, ids;
     } now_, before_;
-    // The cell list of this step: a dense grid over the catoms' bounding box
-    // (cell starts into `order`), or, when that would hold more than 8 cells
-    // a catom, the catoms sorted by cell key.
+    // The cell list of this step over the held catoms: a dense grid over their
+    // bounding box (cell starts into `order`), or, when that would hold more
+    // than 8 cells a catom, the catoms sorted by cell key.
     std::vector<std::uint32_t> start_, order_;
     std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
     Vec3 low_{0, 0, 0};

@@ -84,6 +84,7 @@ void Pipeline::make_force_passes() {
     if (scene_.program.enabled) {
         forces_.push_back(r.make("program", scene_, *exec_));
         program_ = dynamic_cast<ProgramPass*>(forces_.back().get());
+        program_->set_collectives(collectives());
     }
     if (scene_.any_magnets()) forces_.push_back(r.make(Stages::threaded(r, "magnets"), scene_, *exec_));
     if (scene_.controller.enabled) forces_.push_back(r.make(Stages::threaded(r, "controller"), scene_, *exec_));

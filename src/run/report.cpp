@@ -117,9 +117,7 @@ nlohmann::json program_json(const ProgramPass& pass) {
     out["ids"] = pass.catoms();
     nlohmann::json values = nlohmann::json::object();
     for (std::size_t k = 0; k < pass.spec().values.size(); ++k) {
-        std::vector<double> v(pass.catoms().size());
-        for (std::size_t i = 0; i < v.size(); ++i) v[i] = pass.value(i, static_cast<int>(k));
-        values[pass.spec().values[k]] = v;
+        values[pass.spec().values[k]] = pass.values_of(static_cast<int>(k));  // collective when distributed
     }
     out["values"] = values;
     return out;

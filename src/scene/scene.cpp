@@ -48,6 +48,21 @@ double Scene::max_bounding_radius() const {
     return r;
 }
 
+double Scene::program_range() const {
+    double rmax = 0, r0 = -1;
+    for (const BodySpec& b : bodies) {
+        if (!b.catom) continue;
+        if (r0 < 0) r0 = b.shape.radius;
+        rmax = std::max(rmax, b.shape.radius);
+    }
+    if (catoms.count) {
+        if (r0 < 0) r0 = catoms.proto.shape.radius;
+        rmax = std::max(rmax, catoms.proto.shape.radius);
+    }
+    const double reach = program.reach >= 0 ? program.reach : magnets.enabled ? magnets.cutoff : 0.1 * std::max(0.0, r0);
+    return 2 * rmax + reach;
+}
+
 std::size_t Scene::catom_count() const {
     std::size_t n = catoms.count;
     for (const auto& b : bodies) n += b.catom ? 1 : 0;

@@ -251,6 +251,10 @@ struct Scene {
     // Largest bounding-sphere radius of any body.
     double max_bounding_radius() const;
     std::size_t catom_count() const;
+    // Centre distance within which two catoms are neighbours to their
+    // programs: twice the largest catom radius plus program.reach (default:
+    // the magnets' cutoff, else a tenth of the first catom's radius).
+    double program_range() const;
     std::size_t magnet_count() const;  // bodies with magnets on
     bool any_magnets() const;
     int find_body(const std::string& name) const;

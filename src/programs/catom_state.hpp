@@ -1,0 +1,28 @@
+// One catom's program state inside the catom programs' pass (private to
+// src/programs/): its program object, mail, values, magnets and timer.
+// Trade-off: a plain struct shared by the pass and its state exchange
+// instead of accessors: both are the pass.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "programs/program_pass.hpp"
+
+namespace parode {
+
+struct ProgramPass::Catom {
+    std::unique_ptr<CatomProgram> program;
+    std::vector<CatomMessage> inbox;                             // to deliver this step
+    std::vector<std::pair<std::uint32_t, CatomMessage>> outbox;  // sent this step: (to, message)
+    std::array<double, kProgramValues> values{};
+    bool magnets = true, started = false;
+    double timer_at = -1;  // negative: no timer
+    std::uint32_t events = 0;
+    std::string error;     // this step's first failure
+};
+
+}  // namespace parode
