@@ -187,6 +187,84 @@ class Programs(unittest.TestCase):
             self.assertNotEqual(one["state_hash"], plain)
 
 
+SHY = """#include <programs/program.hpp>
+namespace {
+class Shy final : public parode::CatomProgram {
+public:
+    void on_neighbour_gained(parode::CatomContext& c, std::uint32_t id) override {
+        if (c.id() == 0 && c.param("off", 0) != 0) c.set_magnets_toward(id, false);
+        c.set_value(0, c.magnets_toward(id) ? 1 : 0);
+    }
+};
+}
+PARODE_PROGRAM_ENTRY {
+    static const parode::ProgramSpec s{"shy", {"toward"}, [] { return std::make_unique<Shy>(); }};
+    return &s;
+}
+"""
+
+TWO_CATOMS = """[scene]
+name = "two-catoms"
+dt = 0.005
+gravity = [0.0, 0.0, 0.0]
+[[materials]]
+name = "catom"
+[[bodies]]
+name = "a"
+radius = 0.5
+mass = 1.0
+position = [0.0, 0.0, 5.0]
+catom = true
+[[bodies]]
+name = "b"
+radius = 0.5
+mass = 1.0
+position = [1.1, 0.0, 5.0]
+catom = true
+[magnets]
+layout = "axes6"
+cutoff = 0.25
+[program]
+name = "{lib}"
+[program.params]
+off = {off}
+"""
+
+
+def build_library(d, name, source):
+    cpp, lib = os.path.join(d, name + ".cpp"), os.path.join(d, name + ".so")
+    with open(cpp, "w") as f:
+        f.write(source)
+    cxx = os.environ.get("CXX", "c++")
+    subprocess.run([cxx, "-std=c++17", "-shared", "-fPIC", "-fvisibility=hidden", "-I",
+                    os.path.join(SOURCE, "src"), "-o", lib, cpp], check=True, timeout=120)
+    return lib
+
+
+class Poles(unittest.TestCase):
+    def test_the_pole_toward_a_neighbour(self):
+        """Two catoms 0.1 m apart without gravity: only catom 0's +x pole and
+        catom 1's -x pole are within the cutoff, so they pull together; with
+        catom 0's pole toward catom 1 switched off no force acts and neither
+        moves by a bit."""
+        with tempfile.TemporaryDirectory() as d:
+            lib = build_library(d, "shy", SHY)
+            runs = {}
+            for off in (0, 1):
+                path = os.path.join(d, f"two{off}.toml")
+                with open(path, "w") as f:
+                    f.write(TWO_CATOMS.format(lib=lib, off=off))
+                runs[off] = run(path, d, "--steps", "100", "--snapshot-every", "100")
+            (on, moved), (off, still) = runs[0], runs[1]
+            self.assertGreater(moved[100][0][0], 0.04)  # pulled to contact: 0.05 each
+            self.assertLess(moved[100][1][0], 1.06)
+            self.assertEqual(still[100][0], (0.0, 0.0, 5.0))
+            self.assertEqual(still[100][1], (1.1, 0.0, 5.0))
+            self.assertEqual(on["program"]["values"]["toward"], [1.0, 1.0])
+            self.assertEqual(off["program"]["values"]["toward"], [0.0, 1.0])  # catom 1's own pole stays on
+            self.assertNotEqual(on["state_hash"], off["state_hash"])
+
+
 class BadPrograms(unittest.TestCase):
     def failure(self, program, extra=""):
         with tempfile.TemporaryDirectory() as d:

@@ -34,9 +34,14 @@ void MagnetField::find_members(const World& world) {
     members_.clear();
     targets_.clear();
     radius_.clear();
+    on_.clear();
+    partial_ = false;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         const std::uint32_t gid = world.gid(i);
-        if (!scene_.body_magnets(gid) || world.magnets_switched_off(gid)) continue;
+        const std::uint8_t off = world.poles_off(gid);
+        if (!scene_.body_magnets(gid) || off == World::kAllPolesOff) continue;
+        on_.push_back(static_cast<std::uint8_t>(~off));
+        partial_ = partial_ || off != 0;
         if (!world.ghost(i)) targets_.push_back(static_cast<std::uint32_t>(members_.size()));
         members_.push_back(static_cast<std::uint32_t>(i));
         radius_.push_back(gid < scene_.bodies.size() ? scene_.bodies[gid].shape.radius : scene_.catoms.proto.shape.radius);
@@ -69,9 +74,12 @@ void MagnetField::add_pair(std::size_t k, std::size_t m, BodyWrench& w) const {
     const std::size_t np = model_.directions.size();
     const double rc2 = model_.cutoff * model_.cutoff;
     const double eps2 = model_.softening * model_.softening;
+    const unsigned on_k = partial_ ? on_[k] : 0xFFu, on_m = partial_ ? on_[m] : 0xFFu;  // poles past 8: always on
     for (std::size_t a = 0; a < np; ++a) {
+        if (a < 8 && !(on_k >> a & 1u)) continue;
         const Vec3& pa = poles_[k * np + a];
         for (std::size_t b = 0; b < np; ++b) {
+            if (b < 8 && !(on_m >> b & 1u)) continue;
             const Vec3& pb = poles_[m * np + b];
             const Vec3 d{pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
             const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];

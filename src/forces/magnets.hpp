@@ -58,6 +58,8 @@ private:
     std::vector<std::uint32_t> members_;  // local indices of bodies with magnets on
     std::vector<std::uint32_t> targets_;  // members that are owned
     std::vector<double> radius_;          // per member
+    std::vector<std::uint8_t> on_;        // per member: its first 8 poles on (bit p), when partial_
+    bool partial_ = false;                // some member has poles switched off one by one
     std::vector<Vec3> centre_;            // per member
     std::vector<Vec3> poles_;             // member-major, world frame
     std::vector<CellEntry> cells_;        // sorted by (cell key, gid)

@@ -20,6 +20,7 @@ struct ProgramPass::Catom {
     std::vector<std::pair<std::uint32_t, CatomMessage>> outbox;  // sent this step: (to, message)
     std::array<double, kProgramValues> values{};
     bool magnets = true, started = false;
+    std::uint8_t poles_off = 0;  // poles switched off one by one (bit p: pole p)
     double timer_at = -1;  // negative: no timer
     std::uint32_t events = 0;
     std::string error;     // this step's first failure

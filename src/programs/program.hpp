@@ -80,6 +80,13 @@ public:
     virtual void set_timer(double seconds) = 0;
     // A number from the scene's [program.params], or `fallback`.
     virtual double param(const std::string& name, double fallback) const = 0;
+    // The pole (of the scene's magnet layout, in the body frame) facing
+    // neighbour `id` now, switched on or off from the next step's forces on;
+    // it stays so as the catom turns. Throws ProgramError if `id` is not a
+    // neighbour or the facing pole is past the first 8.
+    virtual void set_magnets_toward(std::uint32_t id, bool on) = 0;
+    // Whether the pole facing neighbour `id` now is on (and the catom's magnets).
+    virtual bool magnets_toward(std::uint32_t id) const = 0;
 };
 
 class CatomProgram {

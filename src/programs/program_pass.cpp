@@ -24,9 +24,10 @@ const char* kEventNames[] = {"start", "neighbour lost", "neighbour gained", "mes
 // neighbours (with directions) filled in by the pass before the handlers.
 class Context final : public CatomContext {
 public:
-    Context(ProgramPass::Catom& c, std::uint32_t id, dBodyID body, long step, double time, const ProgramScene& s,
+    Context(ProgramPass::Catom& c, std::uint32_t id, dBodyID body, long step, double time, const Scene& s,
             const std::vector<Neighbour>& nbrs)
-        : c_(c), id_(id), body_(body), step_(step), time_(time), scene_(s), nbrs_(nbrs) {}
+        : c_(c), id_(id), body_(body), step_(step), time_(time), scene_(s.program), poles_(s.magnets.directions),
+          nbrs_(nbrs) {}
     std::uint32_t id() const override { return id_; }
     long step() const override { return step_; }
     double time() const override { return time_; }
@@ -43,10 +44,7 @@ public:
         return {q[0], q[1], q[2], q[3]};
     }
     const std::vector<Neighbour>& neighbours() const override { return nbrs_; }
-    bool is_neighbour(std::uint32_t id) const override {
-        return std::binary_search(nbrs_.begin(), nbrs_.end(), Neighbour{id, {}, 0},
-                                  [](const Neighbour& a, const Neighbour& b) { return a.id < b.id; });
-    }
+    bool is_neighbour(std::uint32_t id) const override { return find(id) != nullptr; }
     void send(std::uint32_t to, const std::array<std::int64_t, 4>& data) override {
         if (!is_neighbour(to)) throw ProgramError("a message to catom " + std::to_string(to) + ", not a neighbour");
         if (static_cast<int>(c_.outbox.size()) >= scene_.max_messages) {
@@ -63,6 +61,11 @@ public:
     void set_value(int k, double v) override { c_.values.at(static_cast<std::size_t>(k)) = v; }
     double value(int k) const override { return c_.values.at(static_cast<std::size_t>(k)); }
     void set_timer(double seconds) override { c_.timer_at = time_ + seconds; }
+    void set_magnets_toward(std::uint32_t id, bool on) override {
+        const std::uint8_t bit = static_cast<std::uint8_t>(1u << facing(id));
+        c_.poles_off = on ? static_cast<std::uint8_t>(c_.poles_off & ~bit) : static_cast<std::uint8_t>(c_.poles_off | bit);
+    }
+    bool magnets_toward(std::uint32_t id) const override { return c_.magnets && !(c_.poles_off >> facing(id) & 1u); }
     double param(const std::string& name, double fallback) const override {
         for (const auto& p : scene_.params) {
             if (p.first == name) return p.second;
@@ -71,12 +74,38 @@ public:
     }
 
 private:
+    const Neighbour* find(std::uint32_t id) const {
+        const auto it = std::lower_bound(nbrs_.begin(), nbrs_.end(), id, [](const Neighbour& a, std::uint32_t b) { return a.id < b; });
+        return it != nbrs_.end() && it->id == id ? &*it : nullptr;
+    }
+    // The pole whose body-frame direction is closest to the neighbour's
+    // direction turned into the body frame (the lowest such pole on a tie).
+    int facing(std::uint32_t id) const {
+        const Neighbour* n = find(id);
+        if (!n) throw ProgramError("magnets toward catom " + std::to_string(id) + ", not a neighbour");
+        const dReal* R = dBodyGetRotation(body_);  // body to world, 3x4 row-major: the body frame is R^T d
+        const Vec3& d = n->direction;
+        const Vec3 b{R[0] * d[0] + R[4] * d[1] + R[8] * d[2], R[1] * d[0] + R[5] * d[1] + R[9] * d[2],
+                     R[2] * d[0] + R[6] * d[1] + R[10] * d[2]};
+        int best = -1;
+        double most = -2;
+        for (std::size_t p = 0; p < poles_.size(); ++p) {
+            const double dot = poles_[p][0] * b[0] + poles_[p][1] * b[1] + poles_[p][2] * b[2];
+            if (dot > most) most = dot, best = static_cast<int>(p);
+        }
+        if (best < 0) throw ProgramError("magnets toward catom " + std::to_string(id) + ": the scene has no magnet poles");
+        if (best >= 8) throw ProgramError("magnets toward catom " + std::to_string(id) + ": pole " + std::to_string(best) +
+                                          " faces it, and only the first 8 poles switch one by one");
+        return best;
+    }
+
     ProgramPass::Catom& c_;
     std::uint32_t id_;
     dBodyID body_;
     long step_;
     double time_;
     const ProgramScene& scene_;
+    const std::vector<Vec3>& poles_;
     const std::vector<Neighbour>& nbrs_;
 };
 
@@ -131,6 +160,7 @@ std::uint64_t catom_digest(std::uint32_t id, const ProgramPass::Catom& c, std::v
     const unsigned char flags[2] = {static_cast<unsigned char>(c.magnets), static_cast<unsigned char>(c.started)};
     h.add_bytes(flags, sizeof flags);
     h.add_bytes(&c.timer_at, sizeof c.timer_at);
+    if (c.poles_off) h.add_bytes(&c.poles_off, sizeof c.poles_off);  // only when used: older hashes stand
     for (const CatomMessage& m : c.inbox) {
         h.add_bytes(&m.from, sizeof m.from);
         h.add_bytes(m.data.data(), sizeof(std::int64_t) * m.data.size());
@@ -315,7 +345,7 @@ void ProgramPass::run_handlers(const World& world, double time) {
             }
             c.outbox.clear();
             c.error.clear();
-            Context ctx(c, ids_[k], body, step_, time, scene_.program, nbrs);
+            Context ctx(c, ids_[k], body, step_, time, scene_, nbrs);
             run_catom(c, ctx, lost, gained, time);
         }
     });

@@ -77,6 +77,7 @@ void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
     b.put(c.values);
     b.put(static_cast<std::uint8_t>(c.magnets));
     b.put(static_cast<std::uint8_t>(c.started));
+    b.put(c.poles_off);
     b.put(c.timer_at);
     b.put(static_cast<std::uint64_t>(c.inbox.size()));
     for (const CatomMessage& m : c.inbox) {
@@ -98,6 +99,7 @@ std::size_t ProgramPass::get_catom(std::size_t k, const std::vector<char>& in, s
     c.values = b.get<std::array<double, kProgramValues>>();
     c.magnets = b.get<std::uint8_t>() != 0;
     c.started = b.get<std::uint8_t>() != 0;
+    c.poles_off = b.get<std::uint8_t>();
     c.timer_at = b.get<double>();
     c.inbox.resize(static_cast<std::size_t>(b.get<std::uint64_t>()));
     for (CatomMessage& m : c.inbox) {
@@ -173,11 +175,12 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
             Bytes b(out[static_cast<std::size_t>(world.slot(local_k_[kt]).owner)]);
             b.put(kMessage), b.put(kt), b.put(m.from), b.put(m.data);
         }
-        if (world.magnets_switched_off(ids_[k]) == c.magnets) {
-            world.switch_magnets(ids_[k], c.magnets);
+        const std::uint8_t off = c.magnets ? c.poles_off : World::kAllPolesOff;
+        if (world.poles_off(ids_[k]) != off) {
+            world.switch_poles(ids_[k], off);
             item.clear();
             Bytes b(item);
-            b.put(kSwitch), b.put(ids_[k]), b.put(static_cast<std::uint8_t>(c.magnets));
+            b.put(kSwitch), b.put(ids_[k]), b.put(off);
             to_all(item);
         }
     }
@@ -203,7 +206,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
                 mailed.push_back(kt);
             } else if (what == kSwitch) {
                 const auto g = b.get<std::uint32_t>();
-                world.switch_magnets(g, b.get<std::uint8_t>() != 0);
+                world.switch_poles(g, b.get<std::uint8_t>());
             } else {
                 const auto k = b.get<std::uint32_t>();
                 catoms_[k].error = b.get_text();
@@ -285,7 +288,9 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
     std::fill(current_.begin(), current_.end(), 1);  // every process holds every catom's state now
     last_owned_.clear();
-    for (std::size_t k = 0; k < catoms_.size(); ++k) world.switch_magnets(ids_[k], catoms_[k].magnets);
+    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+        world.switch_poles(ids_[k], catoms_[k].magnets ? catoms_[k].poles_off : World::kAllPolesOff);
+    }
     locate(world);
     refresh_world(world);
 }

@@ -85,15 +85,19 @@ public:
     // Changes whenever a body is added, removed (local indices moved) or
     // changes between owned and ghost.
     std::uint64_t generation() const { return generation_; }
-    // Catom magnets switched off at run time (catom programs), by global id,
+    // Catom magnets switched off at run time (catom programs), by global id:
+    // the poles switched off (bit p: pole p; kAllPolesOff: the whole catom),
     // and a counter that changes with every switch.
-    bool magnets_switched_off(std::uint32_t gid) const { return gid < magnets_off_.size() && magnets_off_[gid] != 0; }
-    void switch_magnets(std::uint32_t gid, bool on) {
+    static constexpr std::uint8_t kAllPolesOff = 0xFF;
+    std::uint8_t poles_off(std::uint32_t gid) const { return gid < magnets_off_.size() ? magnets_off_[gid] : 0; }
+    bool magnets_switched_off(std::uint32_t gid) const { return poles_off(gid) == kAllPolesOff; }
+    void switch_poles(std::uint32_t gid, std::uint8_t off) {
         if (magnets_off_.size() <= gid) magnets_off_.resize(global_, 0);
-        if ((magnets_off_[gid] != 0) == !on) return;
-        magnets_off_[gid] = on ? 0 : 1;
+        if (magnets_off_[gid] == off) return;
+        magnets_off_[gid] = off;
         ++magnet_version_;
     }
+    void switch_magnets(std::uint32_t gid, bool on) { switch_poles(gid, on ? 0 : kAllPolesOff); }
     std::uint64_t magnet_version() const { return magnet_version_; }
     // What the catom programs' state adds to the state hash (modulo 2^64 sum
     // of their catoms' digests on this process).
@@ -215,7 +219,7 @@ private:
     std::size_t owned_ = 0;
     IdMap map_;
     std::uint64_t generation_ = 0;
-    std::vector<std::uint8_t> magnets_off_;  // by global id, once a program switched one
+    std::vector<std::uint8_t> magnets_off_;  // poles off, by global id, once a program switched one
     std::uint64_t magnet_version_ = 0;
     std::uint64_t program_digest_ = 0;
     std::vector<std::array<double, 4>> program_values_;  // per local body, once a program set one
