@@ -9,7 +9,8 @@ connects twice and a resetting server refuses the second connection):
 
 It opens FILE.xdmf with ParaView's XDMF Reader (XDMF 2; the Xdmf3 readers of
 ParaView 5.11 do not read HyperSlab items), takes the frame at time T (default:
-the last), draws every body as a sphere of its radius coloured by its speed,
+the last), draws every body as a sphere of its radius coloured by its speed
+(or by any point array of the file, `--colour-by program_inside`),
 an arrow along each body's x axis (the `x_axis` attribute, as ParaView's Glyph
 filter orients), and the static geometry (floor, ramps) in grey.
 Trade-off: a fixed oblique camera fitted to the bodies, good for the catom
@@ -43,14 +44,14 @@ def arrows(bodies):
                     ScaleArray=["POINTS", "radius"], ScaleFactor=2.0, GlyphMode="All Points")
 
 
-def draw(view, source, colour=None, by=None):
+def draw(view, source, colour=None, by=None, title=""):
     shown = pv.Show(source, view)
     if by:
         pv.ColorBy(shown, ("POINTS", by))
         shown.RescaleTransferFunctionToDataRange(True, False)
         shown.SetScalarBarVisibility(view, True)
         bar = pv.GetScalarBar(pv.GetColorTransferFunction(by), view)
-        bar.Title, bar.ComponentTitle = "speed (m/s)", ""
+        bar.Title, bar.ComponentTitle = title or by, ""
         bar.TitleColor = bar.LabelColor = [0, 0, 0]
     elif colour:
         shown.ColorArrayName = ["POINTS", ""]
@@ -64,6 +65,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--time", type=float, help="simulated time of the frame (default: the last)")
     ap.add_argument("--size", type=int, nargs=2, default=[1600, 1000])
+    ap.add_argument("--colour-by", default="speed", help="a point array (default: speed, |velocity|)")
     a = ap.parse_args()
     reader, bodies, statics = bodies_and_statics(a.xdmf)
     t = a.time if a.time is not None else reader.TimestepValues[-1]
@@ -74,7 +76,8 @@ def main():
     view.Background = [1, 1, 1]
     view.OrientationAxesVisibility = 0
     draw(view, statics, colour=[0.75, 0.75, 0.72])
-    draw(view, spheres(bodies), by="speed")
+    by = a.colour_by
+    draw(view, spheres(bodies), by=by, title="speed (m/s)" if by == "speed" else by)
     draw(view, arrows(bodies), colour=[0.1, 0.1, 0.1])
     text = pv.Text(Text=f"{a.xdmf.rsplit('/', 1)[-1]}  t = {t:.3f} s")
     draw(view, text).Color = [0, 0, 0]
