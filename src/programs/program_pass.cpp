@@ -20,14 +20,24 @@ namespace {
 
 const char* kEventNames[] = {"start", "neighbour lost", "neighbour gained", "message", "timer"};
 
-// One catom's view during its handlers: pose and velocity read from ODE,
-// neighbours (with directions) filled in by the pass before the handlers.
+// The neighbours of one catom as the pass keeps them: catom indices, their
+// gids and local indices, and the world to read positions from.
+struct NeighbourRange {
+    const std::uint32_t *begin, *end;
+    const std::vector<std::uint32_t>& gids;
+    const std::vector<std::uint32_t>& locals;
+    const World& world;
+};
+
+// One catom's view during its handlers: pose and velocity read from ODE;
+// its neighbours with their directions worked out at the first handler that
+// asks (into the caller's scratch), since most handlers never do.
 class Context final : public CatomContext {
 public:
     Context(ProgramPass::Catom& c, std::uint32_t id, dBodyID body, long step, double time, const Scene& s,
-            const std::vector<Neighbour>& nbrs)
+            const NeighbourRange& range, std::vector<Neighbour>& scratch)
         : c_(c), id_(id), body_(body), step_(step), time_(time), scene_(s.program), poles_(s.magnets.directions),
-          nbrs_(nbrs) {}
+          range_(range), nbrs_(scratch) {}
     std::uint32_t id() const override { return id_; }
     long step() const override { return step_; }
     double time() const override { return time_; }
@@ -43,7 +53,10 @@ public:
         const dReal* q = dBodyGetQuaternion(body_);
         return {q[0], q[1], q[2], q[3]};
     }
-    const std::vector<Neighbour>& neighbours() const override { return nbrs_; }
+    const std::vector<Neighbour>& neighbours() const override {
+        if (!built_) build();
+        return nbrs_;
+    }
     bool is_neighbour(std::uint32_t id) const override { return find(id) != nullptr; }
     void send(std::uint32_t to, const std::array<std::int64_t, 4>& data) override {
         if (!is_neighbour(to)) throw ProgramError("a message to catom " + std::to_string(to) + ", not a neighbour");
@@ -74,7 +87,19 @@ public:
     }
 
 private:
+    void build() const {
+        const dReal* p = dBodyGetPosition(body_);
+        nbrs_.clear();
+        for (const std::uint32_t* j = range_.begin; j != range_.end; ++j) {
+            const dReal* q = dBodyGetPosition(range_.world.body(range_.locals[*j]));
+            const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+            const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            nbrs_.push_back({range_.gids[*j], {d[0] / len, d[1] / len, d[2] / len}, len});
+        }
+        built_ = true;
+    }
     const Neighbour* find(std::uint32_t id) const {
+        neighbours();
         const auto it = std::lower_bound(nbrs_.begin(), nbrs_.end(), id, [](const Neighbour& a, std::uint32_t b) { return a.id < b; });
         return it != nbrs_.end() && it->id == id ? &*it : nullptr;
     }
@@ -106,7 +131,9 @@ private:
     double time_;
     const ProgramScene& scene_;
     const std::vector<Vec3>& poles_;
-    const std::vector<Neighbour>& nbrs_;
+    const NeighbourRange& range_;
+    std::vector<Neighbour>& nbrs_;
+    mutable bool built_ = false;
 };
 
 double catom_radius(const Scene& scene, std::uint32_t gid) {
@@ -198,6 +225,8 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     local_k_.assign(ids_.size(), IdMap::kNone);
     owned_now_.assign(ids_.size(), 0);
     current_.assign(ids_.size(), 1);
+    dirty_.assign(ids_.size(), 1);
+    digest_.assign(ids_.size(), 0);
     for (std::size_t k = 0; k < ids_.size(); ++k) {
         catoms_[k].program = spec_->make();
         if (!catoms_[k].program) throw ProgramError("program " + spec_->name + " made no program object");
@@ -217,7 +246,7 @@ void ProgramPass::locate(const World& world) {
         const std::uint32_t g = world.gid(i);
         if (g < kof_.size() && kof_[g] != IdMap::kNone) held.emplace_back(kof_[g], static_cast<std::uint32_t>(i));
     }
-    std::sort(held.begin(), held.end());
+    if (!std::is_sorted(held.begin(), held.end())) std::sort(held.begin(), held.end());  // one process: in gid order already
     present_.clear();
     plocal_.clear();
     owned_.clear();
@@ -236,6 +265,8 @@ void ProgramPass::locate(const World& world) {
 void ProgramPass::find_neighbours(const World& world) {
     const std::size_t n = present_.size();
     std::vector<Vec3> x(n);
+    rad_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) rad_[j] = catom_radius(scene_, ids_[present_[j]]);
     Vec3 high{-1e300, -1e300, -1e300};
     low_ = {1e300, 1e300, 1e300};
     for (std::size_t j = 0; j < n; ++j) {
@@ -262,6 +293,8 @@ void ProgramPass::find_neighbours(const World& world) {
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
         for (std::size_t j = 0; j < n; ++j) order_[fill[of[j]]++] = static_cast<std::uint32_t>(j);
+        ordered_.resize(n);  // the positions in cell order: a cell's catoms side by side in memory
+        for (std::size_t s = 0; s < n; ++s) ordered_[s] = x[order_[s]];
     } else {
         sorted_.resize(n);
         for (std::size_t j = 0; j < n; ++j) {
@@ -292,12 +325,15 @@ void ProgramPass::find_neighbours(const World& world) {
 // The neighbours (catom indices, ascending) of held catom j, appended to `out`.
 void ProgramPass::neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
     const std::size_t from = out.size();
-    const double rj = catom_radius(scene_, ids_[present_[j]]);
-    const auto take = [&](std::uint32_t i) {
+    const double rj = rad_[j];
+    const auto take = [&](std::uint32_t i, const Vec3& xi) {
         if (i == j) return;
-        const double d = std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
-                                   (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]));
-        if (d > 0 && d <= rj + catom_radius(scene_, ids_[present_[i]]) + reach_) out.push_back(present_[i]);
+        const double d2 = (xi[0] - x[j][0]) * (xi[0] - x[j][0]) + (xi[1] - x[j][1]) * (xi[1] - x[j][1]) +
+                          (xi[2] - x[j][2]) * (xi[2] - x[j][2]);
+        const double bound = rj + rad_[i] + reach_;
+        if (d2 > bound * bound * (1 + 1e-9)) return;  // surely beyond: the exact test below decides the rest
+        const double d = std::sqrt(d2);
+        if (d > 0 && d <= bound) out.push_back(present_[i]);
     };
     std::int64_t c[3];
     for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[j][a] - low_[a]) / edge_);
@@ -306,21 +342,23 @@ void ProgramPass::neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::
         if (!start_.empty()) {
             if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
             const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
-            for (std::uint32_t i = start_[cell]; i < start_[cell + 1]; ++i) take(order_[i]);
+            for (std::uint32_t i = start_[cell]; i < start_[cell + 1]; ++i) take(order_[i], ordered_[i]);
         } else {
             const std::int64_t want = (cx << 42) | (cy << 21) | cz;
             auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
-            for (; it != sorted_.end() && it->first == want; ++it) take(it->second);
+            for (; it != sorted_.end() && it->first == want; ++it) take(it->second, x[it->second]);
         }
     }
     std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());
 }
 
+// Only catoms with something to handle run (not started yet, a neighbour
+// lost or gained, mail, a timer due): the others' records stay as they are.
 void ProgramPass::run_handlers(const World& world, double time) {
     const bool first = before_.at.empty();
     for_ranges(exec_.loops(), owned_.size(), 256, [&](std::size_t o0, std::size_t o1) {
         std::vector<std::uint32_t> lost, gained;
-        std::vector<Neighbour> nbrs;
+        std::vector<Neighbour> scratch;
         for (std::size_t o = o0; o < o1; ++o) {
             const std::uint32_t k = owned_[o];
             Catom& c = catoms_[k];
@@ -334,19 +372,14 @@ void ProgramPass::run_handlers(const World& world, double time) {
             }
             missing(b0, b1, n0, n1, ids_, lost);
             missing(n0, n1, b0, b1, ids_, gained);
-            dBodyID body = world.body(local_k_[k]);
-            const dReal* p = dBodyGetPosition(body);
-            nbrs.clear();
-            for (const std::uint32_t* j = n0; j != n1; ++j) {
-                const dReal* q = dBodyGetPosition(world.body(local_k_[*j]));
-                const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-                const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                nbrs.push_back({ids_[*j], {d[0] / len, d[1] / len, d[2] / len}, len});
-            }
-            c.outbox.clear();
+            if (!c.outbox.empty()) c.outbox.clear();
+            const bool due = c.timer_at >= 0 && time >= c.timer_at - 1e-12;
+            if (c.started && lost.empty() && gained.empty() && c.inbox.empty() && !due) continue;
             c.error.clear();
-            Context ctx(c, ids_[k], body, step_, time, scene_, nbrs);
+            const NeighbourRange range{n0, n1, ids_, local_k_, world};
+            Context ctx(c, ids_[k], world.body(local_k_[k]), step_, time, scene_, range, scratch);
             run_catom(c, ctx, lost, gained, time);
+            dirty_[k] = 1;  // one byte per catom: no two threads write the same
         }
     });
     arrived_.clear();
@@ -356,7 +389,11 @@ void ProgramPass::run_handlers(const World& world, double time) {
 // order), the magnet switches, the first failure (on every process), then
 // the world's values, the counts and the digest.
 void ProgramPass::finish_step(World& world) {
-    for (std::uint32_t k : owned_) catoms_[k].inbox.clear();
+    for (std::uint32_t k : owned_) {
+        if (catoms_[k].inbox.empty()) continue;
+        catoms_[k].inbox.clear();
+        dirty_[k] = 1;
+    }
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<std::uint32_t> failed;
     std::int64_t counted[2] = {0, 0};  // messages, events
@@ -375,14 +412,19 @@ void ProgramPass::finish_step(World& world) {
     if (distributed()) coll_->sum(counted, 2);
     counts_.messages += static_cast<std::uint64_t>(counted[0]);
     counts_.events += static_cast<std::uint64_t>(counted[1]);
-    refresh_world(world);
+    refresh_world(world, step_ == 0);
     last_owned_ = owned_;
 }
 
-// The owned catoms' values and magnets into the world, and their digest
-// (this process's part of the state hash).
-void ProgramPass::refresh_world(World& world) {
+// The values of the owned catoms whose record changed (of all of them when
+// local indices moved) into the world, and the digest of the owned catoms
+// (this process's part of the state hash): each catom's digest is kept and
+// worked out again only when its record changed.
+void ProgramPass::refresh_world(World& world, bool all) {
+    all = all || world.generation() != generation_;
+    generation_ = world.generation();
     for (std::uint32_t k : owned_) {
+        if (!all && !dirty_[k]) continue;
         for (std::size_t v = 0; v < spec_->values.size(); ++v) {
             world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
         }
@@ -393,7 +435,9 @@ void ProgramPass::refresh_world(World& world) {
         std::vector<unsigned char> bytes;
         std::uint64_t sum = 0;
         for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
-            sum += catom_digest(ids_[owned_[o]], catoms_[owned_[o]], bytes);
+            const std::uint32_t k = owned_[o];
+            if (all || dirty_[k]) digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
+            sum += digest_[k];
         }
         sums[c] = sum;
     });

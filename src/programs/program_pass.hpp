@@ -80,7 +80,7 @@ private:
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed);
-    void refresh_world(World& world);
+    void refresh_world(World& world, bool all);
     // One catom's record (values, flags, timer, inbox, program bytes, last
     // neighbours): appended to `out`, or read from `in` at `at` (returns the
     // offset after it; `nbrs` gets the neighbours).
@@ -103,6 +103,9 @@ private:
     std::vector<std::uint8_t> owned_now_;  // by catom index
     std::vector<std::uint8_t> current_;    // by catom index: its state here is current (owned, or none ran yet)
     std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step
+    std::vector<std::uint8_t> dirty_;        // by catom index: its record changed since its digest
+    std::vector<std::uint64_t> digest_;      // by catom index: the digest of its record
+    std::uint64_t generation_ = ~0ULL;       // the world's, when the values were last written
     // Last step's neighbours of catoms that arrived from another process.
     std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> arrived_;
     // Neighbours as catom indices, this step's and last step's (CSR over every
@@ -115,6 +118,8 @@ private:
     // bounding box (cell starts into `order`), or, when that would hold more
     // than 8 cells a catom, the catoms sorted by cell key.
     std::vector<std::uint32_t> start_, order_;
+    std::vector<double> rad_;     // radius of each held catom (as present_)
+    std::vector<Vec3> ordered_;  // their positions in cell order (as order_)
     std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
     Vec3 low_{0, 0, 0};
     std::int64_t dims_[3] = {0, 0, 0};

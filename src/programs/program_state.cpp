@@ -141,6 +141,7 @@ void ProgramPass::transfer(World& world) {
             const auto k = b.get<std::uint32_t>();
             at = get_catom(k, in, b.at(), nbrs);  // one not owned here (sent to every process) only refreshes a stale copy
             if (owned_now_[k]) arrived_[k] = nbrs;
+            dirty_[k] = 1;
         }
     }
     for (std::uint32_t k : owned_) {
@@ -170,6 +171,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
             const std::uint32_t kt = kof_[to];
             if (owned_now_[kt]) {
                 catoms_[kt].inbox.push_back(m);
+                dirty_[kt] = 1;
                 continue;
             }
             Bytes b(out[static_cast<std::size_t>(world.slot(local_k_[kt]).owner)]);
@@ -203,6 +205,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
                 m.data = b.get<std::array<std::int64_t, 4>>();
                 if (!owned_now_[kt]) throw std::logic_error("a message for catom " + std::to_string(ids_[kt]) + ", not owned here");
                 catoms_[kt].inbox.push_back(m);
+                dirty_[kt] = 1;
                 mailed.push_back(kt);
             } else if (what == kSwitch) {
                 const auto g = b.get<std::uint32_t>();
@@ -292,7 +295,7 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
         world.switch_poles(ids_[k], catoms_[k].magnets ? catoms_[k].poles_off : World::kAllPolesOff);
     }
     locate(world);
-    refresh_world(world);
+    refresh_world(world, true);
 }
 
 std::vector<double> ProgramPass::values_of(int v) const {
