@@ -265,6 +265,32 @@ class Poles(unittest.TestCase):
             self.assertNotEqual(on["state_hash"], off["state_hash"])
 
 
+class CandidateNeighbours(unittest.TestCase):
+    def test_skin_gives_the_full_search(self):
+        """Gradient on the collapsing tennis prism (catoms move fast, messages
+        every step): candidates listed with the default skin give the bits of
+        a search every step (skin 0), and the candidates were kept for most
+        steps."""
+        with tempfile.TemporaryDirectory() as d:
+            with open(os.path.join(SOURCE, "jobs", "scenes", "tennis.toml")) as f:
+                text = f.read()
+            path = os.path.join(d, "tennis-gradient.toml")
+            with open(path, "w") as f:
+                f.write(text + '\n[program]\nname = "gradient"\nmax_messages = 30\nreach = 0.25\n'
+                        '[program.params]\nseed = 7\n')
+            common = ("--steps", "200", "--set", "catoms.count=1000")
+            skin = run(path, d, *common)[0]
+            os.environ["PARODE_PROGRAM_SKIN"] = "0"
+            try:
+                full = run(path, d, *common)[0]
+            finally:
+                del os.environ["PARODE_PROGRAM_SKIN"]
+            self.assertEqual(skin["state_hash"], full["state_hash"])
+            self.assertEqual(skin["program"]["values"], full["program"]["values"])
+            self.assertGreater(full["program"]["neighbour_listings"], 150)
+            self.assertLess(skin["program"]["neighbour_listings"], 100)
+
+
 class BadPrograms(unittest.TestCase):
     def failure(self, program, extra=""):
         with tempfile.TemporaryDirectory() as d:

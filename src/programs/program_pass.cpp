@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 #include <exception>
 
 #include "programs/catom_state.hpp"
@@ -208,6 +210,19 @@ void missing(const std::uint32_t* a0, const std::uint32_t* a1, const std::uint32
     }
 }
 
+// The candidates' skin as a fraction of the neighbour range: 0.2, or
+// PARODE_PROGRAM_SKIN (a testing aid: 0 lists them every step a catom moves).
+double skin_fraction() {
+    const char* env = std::getenv("PARODE_PROGRAM_SKIN");
+    if (!env || !*env) return 0.2;
+    char* end = nullptr;
+    const double f = std::strtod(env, &end);
+    if (*end || !(f >= 0 && f <= 1)) {
+        throw std::invalid_argument(std::string("PARODE_PROGRAM_SKIN=") + env + ": expected a number from 0 to 1");
+    }
+    return f;
+}
+
 }  // namespace
 
 ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
@@ -221,6 +236,7 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     const double r = ids_.empty() ? 0.0 : catom_radius(scene, ids_.front());
     reach_ = scene.program.reach >= 0 ? scene.program.reach : scene.magnets.enabled ? scene.magnets.cutoff : 0.1 * r;
     edge_ = scene.program_range();  // the scene's radii: the cell edge is fixed for the run
+    skin_ = skin_fraction() * edge_;
     catoms_.resize(ids_.size());
     local_k_.assign(ids_.size(), IdMap::kNone);
     owned_now_.assign(ids_.size(), 0);
@@ -258,28 +274,91 @@ void ProgramPass::locate(const World& world) {
     }
 }
 
-// Centres in a cell list of edge 2 r_max + reach: a dense grid over the
-// bounding box when it has at most 8 cells a catom (counting sort, O(N)),
-// else the catoms sorted by cell key; each owned catom then looks at the 27
-// cells around its own. Chunks of catoms fill their own lists, joined in order.
+// Each owned catom's neighbours from its candidates: the held catoms within
+// the neighbour range plus a skin when the candidates were listed. While no
+// held catom has moved half the skin since, every neighbour is a candidate
+// (the triangle inequality), so testing the candidates with the exact
+// distance test gives the lists a full search would, bit for bit; the lists
+// are made again when a catom moved farther, or the catoms held or owned
+// here changed. Chunks of catoms fill their own lists, joined in order.
 void ProgramPass::find_neighbours(const World& world) {
     const std::size_t n = present_.size();
     std::vector<Vec3> x(n);
-    rad_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) rad_[j] = catom_radius(scene_, ids_[present_[j]]);
-    Vec3 high{-1e300, -1e300, -1e300};
-    low_ = {1e300, 1e300, 1e300};
     for (std::size_t j = 0; j < n; ++j) {
         const dReal* p = dBodyGetPosition(world.body(plocal_[j]));
         x[j] = {p[0], p[1], p[2]};
+    }
+    if (stale(x)) list_candidates(x);
+    std::swap(before_, now_);
+    const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
+    std::vector<std::vector<std::uint32_t>> part(chunks);
+    now_.at.assign(ids_.size() + 1, 0);
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        std::vector<std::uint32_t> mine;
+        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
+            if (!owned_now_[present_[j]]) continue;
+            const std::size_t from = mine.size();
+            for (std::uint32_t q = cand_.at[j]; q < cand_.at[j + 1]; ++q) {
+                const std::uint32_t i = cand_.ids[q];
+                if (close(x, j, i, 0.0)) mine.push_back(present_[i]);
+            }
+            now_.at[present_[j] + 1] = static_cast<std::uint32_t>(mine.size() - from);
+        }
+        part[c] = std::move(mine);
+    });
+    for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
+    now_.ids.clear();
+    now_.ids.reserve(now_.at[ids_.size()]);
+    for (const auto& p : part) now_.ids.insert(now_.ids.end(), p.begin(), p.end());
+}
+
+// Whether held catoms i and j are within the neighbour range plus `extra`:
+// the exact test on the centre distance (a cheap test first for those surely
+// beyond).
+bool ProgramPass::close(const std::vector<Vec3>& x, std::size_t j, std::size_t i, double extra) const {
+    if (i == j) return false;
+    const double d2 = (x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
+                      (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]);
+    const double bound = rad_[j] + rad_[i] + reach_ + extra;
+    if (d2 > bound * bound * (1 + 1e-9)) return false;
+    const double d = std::sqrt(d2);
+    return d > 0 && d <= bound;
+}
+
+// Whether the candidates must be listed again.
+bool ProgramPass::stale(const std::vector<Vec3>& x) const {
+    if (listed_present_ != present_ || listed_owned_ != owned_) return true;
+    const double half = 0.5 * skin_ * (1 - 1e-9);
+    double most = 0;
+    for (std::size_t j = 0; j < x.size(); ++j) {
+        const double d2 = (x[j][0] - listed_x_[j][0]) * (x[j][0] - listed_x_[j][0]) +
+                          (x[j][1] - listed_x_[j][1]) * (x[j][1] - listed_x_[j][1]) +
+                          (x[j][2] - listed_x_[j][2]) * (x[j][2] - listed_x_[j][2]);
+        most = std::max(most, d2);
+    }
+    return most > half * half;
+}
+
+// Centres in a cell list of edge 2 r_max + reach + skin: a dense grid over
+// the bounding box when it has at most 8 cells a catom (counting sort,
+// O(N)), else the catoms sorted by cell key; each owned catom then looks at
+// the 27 cells around its own for its candidates.
+void ProgramPass::list_candidates(const std::vector<Vec3>& x) {
+    const std::size_t n = x.size();
+    rad_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) rad_[j] = catom_radius(scene_, ids_[present_[j]]);
+    const double edge = edge_ + skin_;
+    Vec3 high{-1e300, -1e300, -1e300};
+    low_ = {1e300, 1e300, 1e300};
+    for (std::size_t j = 0; j < n; ++j) {
         for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[j][a]), high[a] = std::max(high[a], x[j][a]);
     }
     double cells = 1;
     for (int a = 0; a < 3; ++a) {
-        dims_[a] = n ? static_cast<std::int64_t>((high[a] - low_[a]) / edge_) + 1 : 1;
+        dims_[a] = n ? static_cast<std::int64_t>((high[a] - low_[a]) / edge) + 1 : 1;
         cells *= static_cast<double>(dims_[a]);
     }
-    const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge_); };
+    const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge); };
     sorted_.clear();
     start_.clear();
     if (cells <= 8.0 * static_cast<double>(n) + 64) {
@@ -293,8 +372,6 @@ void ProgramPass::find_neighbours(const World& world) {
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
         for (std::size_t j = 0; j < n; ++j) order_[fill[of[j]]++] = static_cast<std::uint32_t>(j);
-        ordered_.resize(n);  // the positions in cell order: a cell's catoms side by side in memory
-        for (std::size_t s = 0; s < n; ++s) ordered_[s] = x[order_[s]];
     } else {
         sorted_.resize(n);
         for (std::size_t j = 0; j < n; ++j) {
@@ -302,51 +379,49 @@ void ProgramPass::find_neighbours(const World& world) {
         }
         std::sort(sorted_.begin(), sorted_.end());
     }
-    std::swap(before_, now_);
     const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
-    now_.at.assign(ids_.size() + 1, 0);
+    cand_.at.assign(n + 1, 0);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
         for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
             if (!owned_now_[present_[j]]) continue;
             const std::size_t from = mine.size();
-            neighbours_of(j, x, mine);
-            now_.at[present_[j] + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            candidates_of(j, x, mine);
+            cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
-    now_.ids.clear();
-    now_.ids.reserve(now_.at[ids_.size()]);
-    for (const auto& p : part) now_.ids.insert(now_.ids.end(), p.begin(), p.end());
+    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
+    cand_.ids.clear();
+    cand_.ids.reserve(cand_.at[n]);
+    for (const auto& p : part) cand_.ids.insert(cand_.ids.end(), p.begin(), p.end());
+    listed_x_ = x;
+    listed_present_ = present_;
+    listed_owned_ = owned_;
+    ++counts_.lists;
 }
 
-// The neighbours (catom indices, ascending) of held catom j, appended to `out`.
-void ProgramPass::neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
+// The candidates (held-catom indices, ascending) of held catom j, appended to `out`.
+void ProgramPass::candidates_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
     const std::size_t from = out.size();
-    const double rj = rad_[j];
-    const auto take = [&](std::uint32_t i, const Vec3& xi) {
-        if (i == j) return;
-        const double d2 = (xi[0] - x[j][0]) * (xi[0] - x[j][0]) + (xi[1] - x[j][1]) * (xi[1] - x[j][1]) +
-                          (xi[2] - x[j][2]) * (xi[2] - x[j][2]);
-        const double bound = rj + rad_[i] + reach_;
-        if (d2 > bound * bound * (1 + 1e-9)) return;  // surely beyond: the exact test below decides the rest
-        const double d = std::sqrt(d2);
-        if (d > 0 && d <= bound) out.push_back(present_[i]);
-    };
+    const double edge = edge_ + skin_;
     std::int64_t c[3];
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[j][a] - low_[a]) / edge_);
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[j][a] - low_[a]) / edge);
     for (int d = 0; d < 27; ++d) {
         const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
         if (!start_.empty()) {
             if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
             const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
-            for (std::uint32_t i = start_[cell]; i < start_[cell + 1]; ++i) take(order_[i], ordered_[i]);
+            for (std::uint32_t s = start_[cell]; s < start_[cell + 1]; ++s) {
+                if (close(x, j, order_[s], skin_)) out.push_back(order_[s]);
+            }
         } else {
             const std::int64_t want = (cx << 42) | (cy << 21) | cz;
             auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
-            for (; it != sorted_.end() && it->first == want; ++it) take(it->second, x[it->second]);
+            for (; it != sorted_.end() && it->first == want; ++it) {
+                if (close(x, j, it->second, skin_)) out.push_back(it->second);
+            }
         }
     }
     std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());

@@ -24,9 +24,10 @@
 // Trade-off: every process keeps a slot (and a program object) for every
 // catom of the scene, current only for those it owns: simple lookups and a
 // checkpoint of any split, against memory a process that grows with the
-// scene (about 100 bytes a catom); neighbours found afresh each step from a
-// cell list of the catoms (a dense grid, O(N)), kept as catom indices, and
-// handed to a handler with their directions only when it runs.
+// scene (about 100 bytes a catom); neighbours tested each step among
+// candidates listed with a skin (listed again from a cell list, O(N), when a
+// catom moved half the skin), kept as catom indices, and handed to a handler
+// with their directions only when it asks; only catoms with an event run.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -44,6 +45,7 @@ namespace parode {
 struct ProgramCounts {
     std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: every process's
     double seconds = 0;                                  // this process's
+    std::uint64_t lists = 0;                             // this process's listings of candidate neighbours
 };
 
 class ProgramPass final : public ForcePass {
@@ -76,7 +78,10 @@ private:
     void locate(const World& world);
     void transfer(World& world);
     void find_neighbours(const World& world);
-    void neighbours_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
+    bool close(const std::vector<Vec3>& x, std::size_t j, std::size_t i, double extra) const;
+    bool stale(const std::vector<Vec3>& x) const;
+    void list_candidates(const std::vector<Vec3>& x);
+    void candidates_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed);
@@ -93,7 +98,7 @@ private:
     const ProgramSpec* spec_;
     Collectives single_;
     const Collectives* coll_ = &single_;
-    double reach_, edge_ = 0;
+    double reach_, edge_ = 0, skin_ = 0;
     std::vector<std::uint32_t> ids_;  // catom gids, ascending
     std::vector<std::uint32_t> kof_;  // gid -> catom index (kNone: not a catom)
     std::vector<Catom> catoms_;
@@ -114,12 +119,17 @@ private:
     struct Csr {
         std::vector<std::uint32_t> at, ids;
     } now_, before_;
-    // The cell list of this step over the held catoms: a dense grid over their
-    // bounding box (cell starts into `order`), or, when that would hold more
-    // than 8 cells a catom, the catoms sorted by cell key.
+    // The owned catoms' candidate neighbours (CSR over the held catoms, as
+    // present_: held-catom indices, ascending) and what they were listed
+    // from: positions, held and owned catoms (counts_.lists: how many times).
+    Csr cand_;
+    std::vector<Vec3> listed_x_;
+    std::vector<std::uint32_t> listed_present_, listed_owned_;
+    // The cell list of the last listing over the held catoms: a dense grid
+    // over their bounding box (cell starts into `order`), or, when that would
+    // hold more than 8 cells a catom, the catoms sorted by cell key.
     std::vector<std::uint32_t> start_, order_;
     std::vector<double> rad_;     // radius of each held catom (as present_)
-    std::vector<Vec3> ordered_;  // their positions in cell order (as order_)
     std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
     Vec3 low_{0, 0, 0};
     std::int64_t dims_[3] = {0, 0, 0};

@@ -112,6 +112,7 @@ nlohmann::json program_json(const ProgramPass& pass) {
                           {"steps", c.steps},                 {"messages", c.messages},
                           {"events", c.events},               {"messages_per_step", static_cast<double>(c.messages) / steps},
                           {"events_per_step", c.events / steps}, {"seconds", c.seconds},
+                          {"neighbour_listings", c.lists},
                           {"value_names", pass.spec().values}};
     if (pass.catoms().size() > kListedCatoms) return out;
     out["ids"] = pass.catoms();
