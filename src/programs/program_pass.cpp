@@ -255,23 +255,33 @@ ProgramPass::~ProgramPass() = default;
 // The catoms held here this step (ascending catom index), their local
 // indices, and the owned ones.
 void ProgramPass::locate(const World& world) {
-    for (std::uint32_t k : present_) local_k_[k] = IdMap::kNone, owned_now_[k] = 0;
+    for_ranges(exec_.loops(), present_.size(), 4096, [&](std::size_t j0, std::size_t j1) {
+        for (std::size_t j = j0; j < j1; ++j) local_k_[present_[j]] = IdMap::kNone, owned_now_[present_[j]] = 0;
+    });
+    const std::size_t nb = world.body_count(), chunks = chunk_count(exec_.loops(), nb, 4096);
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> part(chunks);
+    exec_.loops().run(chunks, nb, [&](std::size_t c) {
+        for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) {
+            const std::uint32_t g = world.gid(i);
+            if (g < kof_.size() && kof_[g] != IdMap::kNone) part[c].emplace_back(kof_[g], static_cast<std::uint32_t>(i));
+        }
+    });
     std::vector<std::pair<std::uint32_t, std::uint32_t>> held;
-    held.reserve(world.body_count());
-    for (std::size_t i = 0; i < world.body_count(); ++i) {
-        const std::uint32_t g = world.gid(i);
-        if (g < kof_.size() && kof_[g] != IdMap::kNone) held.emplace_back(kof_[g], static_cast<std::uint32_t>(i));
-    }
+    for (const auto& p : part) held.insert(held.end(), p.begin(), p.end());
     if (!std::is_sorted(held.begin(), held.end())) std::sort(held.begin(), held.end());  // one process: in gid order already
-    present_.clear();
-    plocal_.clear();
+    const std::size_t n = held.size(), hchunks = chunk_count(exec_.loops(), n, 4096);
+    present_.resize(n);
+    plocal_.resize(n);
+    std::vector<std::vector<std::uint32_t>> owned(hchunks);
+    exec_.loops().run(hchunks, n, [&](std::size_t c) {
+        for (std::size_t j = chunk_begin(n, hchunks, c); j < chunk_begin(n, hchunks, c + 1); ++j) {
+            const auto [k, i] = held[j];
+            present_[j] = k, plocal_[j] = i, local_k_[k] = i;
+            if (!world.ghost(i)) owned[c].push_back(k), owned_now_[k] = 1;
+        }
+    });
     owned_.clear();
-    for (const auto& [k, i] : held) {
-        present_.push_back(k);
-        plocal_.push_back(i);
-        local_k_[k] = i;
-        if (!world.ghost(i)) owned_.push_back(k), owned_now_[k] = 1;
-    }
+    for (const auto& o : owned) owned_.insert(owned_.end(), o.begin(), o.end());
 }
 
 // Each owned catom's neighbours from its candidates: the held catoms within
@@ -284,10 +294,12 @@ void ProgramPass::locate(const World& world) {
 void ProgramPass::find_neighbours(const World& world) {
     const std::size_t n = present_.size();
     std::vector<Vec3> x(n);
-    for (std::size_t j = 0; j < n; ++j) {
-        const dReal* p = dBodyGetPosition(world.body(plocal_[j]));
-        x[j] = {p[0], p[1], p[2]};
-    }
+    for_ranges(exec_.loops(), n, 4096, [&](std::size_t j0, std::size_t j1) {
+        for (std::size_t j = j0; j < j1; ++j) {
+            const dReal* p = dBodyGetPosition(world.body(plocal_[j]));
+            x[j] = {p[0], p[1], p[2]};
+        }
+    });
     if (stale(x)) list_candidates(x);
     std::swap(before_, now_);
     const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
@@ -307,9 +319,17 @@ void ProgramPass::find_neighbours(const World& world) {
         part[c] = std::move(mine);
     });
     for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
-    now_.ids.clear();
-    now_.ids.reserve(now_.at[ids_.size()]);
-    for (const auto& p : part) now_.ids.insert(now_.ids.end(), p.begin(), p.end());
+    join(part, now_.ids);
+}
+
+// The chunks' lists one after the other in `out`, copied on the threads.
+void ProgramPass::join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const {
+    std::vector<std::size_t> at(part.size() + 1, 0);
+    for (std::size_t c = 0; c < part.size(); ++c) at[c + 1] = at[c] + part[c].size();
+    out.resize(at.back());
+    exec_.loops().run(part.size(), at.back(), [&](std::size_t c) {
+        std::copy(part[c].begin(), part[c].end(), out.begin() + static_cast<std::ptrdiff_t>(at[c]));
+    });
 }
 
 // Whether held catoms i and j are within the neighbour range plus `extra`:
@@ -329,14 +349,17 @@ bool ProgramPass::close(const std::vector<Vec3>& x, std::size_t j, std::size_t i
 bool ProgramPass::stale(const std::vector<Vec3>& x) const {
     if (listed_present_ != present_ || listed_owned_ != owned_) return true;
     const double half = 0.5 * skin_ * (1 - 1e-9);
-    double most = 0;
-    for (std::size_t j = 0; j < x.size(); ++j) {
-        const double d2 = (x[j][0] - listed_x_[j][0]) * (x[j][0] - listed_x_[j][0]) +
-                          (x[j][1] - listed_x_[j][1]) * (x[j][1] - listed_x_[j][1]) +
-                          (x[j][2] - listed_x_[j][2]) * (x[j][2] - listed_x_[j][2]);
-        most = std::max(most, d2);
-    }
-    return most > half * half;
+    const std::size_t n = x.size(), chunks = chunk_count(exec_.loops(), n, 4096);
+    std::vector<double> most(chunks, 0.0);  // a maximum: the same for any split
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
+            const double d2 = (x[j][0] - listed_x_[j][0]) * (x[j][0] - listed_x_[j][0]) +
+                              (x[j][1] - listed_x_[j][1]) * (x[j][1] - listed_x_[j][1]) +
+                              (x[j][2] - listed_x_[j][2]) * (x[j][2] - listed_x_[j][2]);
+            most[c] = std::max(most[c], d2);
+        }
+    });
+    return *std::max_element(most.begin(), most.end()) > half * half;
 }
 
 // Centres in a cell list of edge 2 r_max + reach + skin: a dense grid over
@@ -393,9 +416,7 @@ void ProgramPass::list_candidates(const std::vector<Vec3>& x) {
         part[c] = std::move(mine);
     });
     for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
-    cand_.ids.clear();
-    cand_.ids.reserve(cand_.at[n]);
-    for (const auto& p : part) cand_.ids.insert(cand_.ids.end(), p.begin(), p.end());
+    join(part, cand_.ids);
     listed_x_ = x;
     listed_present_ = present_;
     listed_owned_ = owned_;
@@ -431,10 +452,12 @@ void ProgramPass::candidates_of(std::size_t j, const std::vector<Vec3>& x, std::
 // lost or gained, mail, a timer due): the others' records stay as they are.
 void ProgramPass::run_handlers(const World& world, double time) {
     const bool first = before_.at.empty();
-    for_ranges(exec_.loops(), owned_.size(), 256, [&](std::size_t o0, std::size_t o1) {
+    const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 256);
+    std::vector<std::vector<std::uint32_t>> ran(chunks);
+    exec_.loops().run(chunks, n, [&](std::size_t ch) {
         std::vector<std::uint32_t> lost, gained;
         std::vector<Neighbour> scratch;
-        for (std::size_t o = o0; o < o1; ++o) {
+        for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
             const std::uint32_t k = owned_[o];
             Catom& c = catoms_[k];
             const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
@@ -455,24 +478,25 @@ void ProgramPass::run_handlers(const World& world, double time) {
             Context ctx(c, ids_[k], world.body(local_k_[k]), step_, time, scene_, range, scratch);
             run_catom(c, ctx, lost, gained, time);
             dirty_[k] = 1;  // one byte per catom: no two threads write the same
+            ran[ch].push_back(k);
         }
     });
     arrived_.clear();
+    ran_.clear();
+    for (const auto& r : ran) ran_.insert(ran_.end(), r.begin(), r.end());  // ascending: chunks in order
 }
 
 // In id order: the mail for next step (each receiver's inbox in sender
 // order), the magnet switches, the first failure (on every process), then
 // the world's values, the counts and the digest.
 void ProgramPass::finish_step(World& world) {
-    for (std::uint32_t k : owned_) {
-        if (catoms_[k].inbox.empty()) continue;
-        catoms_[k].inbox.clear();
-        dirty_[k] = 1;
-    }
+    // Only catoms that ran have mail to clear (mail makes a catom run), an
+    // outbox, events, a failure or switched magnets.
+    for (std::uint32_t k : ran_) catoms_[k].inbox.clear();
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<std::uint32_t> failed;
     std::int64_t counted[2] = {0, 0};  // messages, events
-    for (std::uint32_t k : owned_) {
+    for (std::uint32_t k : ran_) {
         Catom& c = catoms_[k];
         if (!c.error.empty()) failed.push_back(k);
         counted[0] += static_cast<std::int64_t>(c.outbox.size());
@@ -498,12 +522,7 @@ void ProgramPass::finish_step(World& world) {
 void ProgramPass::refresh_world(World& world, bool all) {
     all = all || world.generation() != generation_;
     generation_ = world.generation();
-    for (std::uint32_t k : owned_) {
-        if (!all && !dirty_[k]) continue;
-        for (std::size_t v = 0; v < spec_->values.size(); ++v) {
-            world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
-        }
-    }
+    world.size_program_values();  // the threads below only write values
     const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::uint64_t> sums(chunks, 0);  // modulo 2^64: any grouping gives the same total
     exec_.loops().run(chunks, n, [&](std::size_t c) {
@@ -511,7 +530,12 @@ void ProgramPass::refresh_world(World& world, bool all) {
         std::uint64_t sum = 0;
         for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
             const std::uint32_t k = owned_[o];
-            if (all || dirty_[k]) digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
+            if (all || dirty_[k]) {
+                for (std::size_t v = 0; v < spec_->values.size(); ++v) {  // each catom its own local slot
+                    world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
+                }
+                digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
+            }
             sum += digest_[k];
         }
         sums[c] = sum;

@@ -82,6 +82,7 @@ private:
     bool stale(const std::vector<Vec3>& x) const;
     void list_candidates(const std::vector<Vec3>& x);
     void candidates_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
+    void join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed);
@@ -105,6 +106,7 @@ private:
     // This step: the catoms held here (ascending catom index) and their local
     // indices, the owned ones, and each catom's local index (kNone: not held).
     std::vector<std::uint32_t> present_, plocal_, owned_, local_k_;
+    std::vector<std::uint32_t> ran_;  // the owned catoms whose handlers ran this step (ascending)
     std::vector<std::uint8_t> owned_now_;  // by catom index
     std::vector<std::uint8_t> current_;    // by catom index: its state here is current (owned, or none ran yet)
     std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step

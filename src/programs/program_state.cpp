@@ -165,7 +165,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
         }
     };
     std::vector<char> item;
-    for (std::uint32_t k : owned_) {
+    for (std::uint32_t k : ran_) {  // only they may have sent or switched
         Catom& c = catoms_[k];
         for (const auto& [to, m] : c.outbox) {
             const std::uint32_t kt = kof_[to];

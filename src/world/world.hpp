@@ -105,8 +105,13 @@ public:
     void set_program_digest(std::uint64_t d) { program_digest_ = d; }
     // A catom program's value k (0 <= k < 4) of local body `local`, for the
     // snapshots (0 for a body without a program).
-    void set_program_value(std::size_t local, int k, double v) {
+    // Sizes the values for every local body; after it, set_program_value of
+    // distinct bodies may run on several threads at once.
+    void size_program_values() {
         if (program_values_.size() < bodies_.size()) program_values_.resize(bodies_.size());
+    }
+    void set_program_value(std::size_t local, int k, double v) {
+        size_program_values();
         program_values_[local][static_cast<std::size_t>(k)] = v;
     }
     double program_value(std::size_t local, int k) const {
