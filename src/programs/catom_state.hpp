@@ -1,5 +1,6 @@
 // One catom's program state inside the catom programs' pass (private to
-// src/programs/): its program object, mail, values, magnets and timer.
+// src/programs/): its program object, mail, values, magnets and timer; and
+// a catom's radius.
 // Trade-off: a plain struct shared by the pass and its state exchange
 // instead of accessors: both are the pass.
 #pragma once
@@ -25,5 +26,10 @@ struct ProgramPass::Catom {
     std::uint32_t events = 0;
     std::string error;     // this step's first failure
 };
+
+// The radius of catom `gid` (a [[bodies]] catom's own, else the prototype's).
+inline double catom_radius(const Scene& scene, std::uint32_t gid) {
+    return gid < scene.bodies.size() ? scene.bodies[gid].shape.radius : scene.catoms.proto.shape.radius;
+}
 
 }  // namespace parode
