@@ -29,7 +29,7 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
         }
     }
     if (sc.program.enabled && sc.program_range() > cell_edge) {
-        return refuse(sc.source + ": program.reach = " + std::to_string(sc.program_range() - 2 * sc.max_bounding_radius()) +
+        return refuse(sc.source + ": program.reach = " + std::to_string(sc.program_reach()) +
                       " m reaches past the ghost halo of a distributed run (one cell of " + std::to_string(cell_edge) +
                       " m): a catom's neighbours must lie within 2 r_max = " + std::to_string(2 * sc.max_bounding_radius()) +
                       " m of its surface" + one);

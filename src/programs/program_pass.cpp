@@ -229,8 +229,7 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
         kof_[g] = static_cast<std::uint32_t>(ids_.size());
         ids_.push_back(static_cast<std::uint32_t>(g));
     }
-    const double r = ids_.empty() ? 0.0 : catom_radius(scene, ids_.front());
-    reach_ = scene.program.reach >= 0 ? scene.program.reach : scene.magnets.enabled ? scene.magnets.cutoff : 0.1 * r;
+    reach_ = scene.program_reach();
     edge_ = scene.program_range();  // the scene's radii: the cell edge is fixed for the run
     skin_ = skin_fraction() * edge_;
     catoms_.resize(ids_.size());
@@ -293,7 +292,6 @@ void ProgramPass::finish_step(World& world) {
     // Only catoms that ran have mail to clear (mail makes a catom run), an
     // outbox, events, a failure or switched magnets.
     for (std::uint32_t k : ran_) catoms_[k].inbox.clear();
-    std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<std::uint32_t> failed;
     std::int64_t counted[2] = {0, 0};  // messages, events
     for (std::uint32_t k : ran_) {
@@ -303,7 +301,7 @@ void ProgramPass::finish_step(World& world) {
         counted[1] += c.events;
         c.events = 0;
     }
-    exchange_mail(world, out, failed);
+    exchange_mail(world, failed);
     if (!failed.empty()) {
         const std::uint32_t k = *std::min_element(failed.begin(), failed.end());
         throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + catoms_[k].error);

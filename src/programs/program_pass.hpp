@@ -85,7 +85,7 @@ private:
     void join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const;
     void run_handlers(const World& world, double time);
     void finish_step(World& world);
-    void exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed);
+    void exchange_mail(World& world, std::vector<std::uint32_t>& failed);
     void refresh_world(World& world, bool all);
     // One catom's record (values, flags, timer, inbox, program bytes, last
     // neighbours): appended to `out`, or read from `in` at `at` (returns the

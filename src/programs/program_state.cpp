@@ -69,6 +69,16 @@ private:
 // What one step's mail holds: a message, a magnet switch, a failure.
 enum Item : std::uint8_t { kMessage = 1, kSwitch = 2, kFailure = 3 };
 
+// `bytes` onto process `to`'s outgoing buffer, or every other process's when
+// `to` is negative.
+void post(std::vector<std::vector<char>>& out, int me, int to, const std::vector<char>& bytes) {
+    for (int r = 0; r < static_cast<int>(out.size()); ++r) {
+        if (r == me || (to >= 0 && r != to)) continue;
+        std::vector<char>& o = out[static_cast<std::size_t>(r)];
+        o.insert(o.end(), bytes.begin(), bytes.end());
+    }
+}
+
 }  // namespace
 
 void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
@@ -129,10 +139,7 @@ void ProgramPass::transfer(World& world) {
         record.clear();
         Bytes(record).put(k);
         put_catom(k, record);
-        const int to = local_k_[k] != IdMap::kNone ? world.slot(local_k_[k]).owner : -1;
-        for (int r = 0; r < coll_->ranks(); ++r) {
-            if (r != me && (to < 0 || r == to)) out[static_cast<std::size_t>(r)].insert(out[static_cast<std::size_t>(r)].end(), record.begin(), record.end());
-        }
+        post(out, me, local_k_[k] != IdMap::kNone ? world.slot(local_k_[k]).owner : -1, record);
     }
     std::vector<std::uint32_t> nbrs;
     for (const std::vector<char>& in : coll_->all_to_all(out)) {
@@ -157,13 +164,9 @@ void ProgramPass::transfer(World& world) {
 // inboxes, the others to their owners; magnet switches into the world and to
 // every process; failures to every process (`failed` gets every process's).
 // Each inbox ends in sender order (then sending order).
-void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& out, std::vector<std::uint32_t>& failed) {
-    const int me = coll_->rank(), ranks = coll_->ranks();
-    const auto to_all = [&](const std::vector<char>& item) {
-        for (int r = 0; r < ranks; ++r) {
-            if (r != me) out[static_cast<std::size_t>(r)].insert(out[static_cast<std::size_t>(r)].end(), item.begin(), item.end());
-        }
-    };
+void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed) {
+    const int me = coll_->rank();
+    std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<char> item;
     for (std::uint32_t k : ran_) {  // only they may have sent or switched
         Catom& c = catoms_[k];
@@ -183,7 +186,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
             item.clear();
             Bytes b(item);
             b.put(kSwitch), b.put(ids_[k]), b.put(off);
-            to_all(item);
+            post(out, me, -1, item);
         }
     }
     for (std::uint32_t k : failed) {
@@ -191,7 +194,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::vector<char>>& ou
         Bytes b(item);
         b.put(kFailure), b.put(k);
         b.put_bytes(catoms_[k].error.data(), catoms_[k].error.size());
-        to_all(item);
+        post(out, me, -1, item);
     }
     if (!distributed()) return;
     std::vector<std::uint32_t> mailed;

@@ -48,19 +48,22 @@ double Scene::max_bounding_radius() const {
     return r;
 }
 
-double Scene::program_range() const {
-    double rmax = 0, r0 = -1;
+double Scene::program_reach() const {
+    if (program.reach >= 0) return program.reach;
+    if (magnets.enabled) return magnets.cutoff;
     for (const BodySpec& b : bodies) {
-        if (!b.catom) continue;
-        if (r0 < 0) r0 = b.shape.radius;
-        rmax = std::max(rmax, b.shape.radius);
+        if (b.catom) return 0.1 * b.shape.radius;  // the first catom's
     }
-    if (catoms.count) {
-        if (r0 < 0) r0 = catoms.proto.shape.radius;
-        rmax = std::max(rmax, catoms.proto.shape.radius);
+    return catoms.count ? 0.1 * catoms.proto.shape.radius : 0.0;
+}
+
+double Scene::program_range() const {
+    double rmax = 0;
+    for (const BodySpec& b : bodies) {
+        if (b.catom) rmax = std::max(rmax, b.shape.radius);
     }
-    const double reach = program.reach >= 0 ? program.reach : magnets.enabled ? magnets.cutoff : 0.1 * std::max(0.0, r0);
-    return 2 * rmax + reach;
+    if (catoms.count) rmax = std::max(rmax, catoms.proto.shape.radius);
+    return 2 * rmax + program_reach();
 }
 
 std::size_t Scene::catom_count() const {

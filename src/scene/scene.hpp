@@ -251,9 +251,11 @@ struct Scene {
     // Largest bounding-sphere radius of any body.
     double max_bounding_radius() const;
     std::size_t catom_count() const;
-    // Centre distance within which two catoms are neighbours to their
-    // programs: twice the largest catom radius plus program.reach (default:
-    // the magnets' cutoff, else a tenth of the first catom's radius).
+    // How far beyond the two radii catoms are neighbours to their programs:
+    // program.reach, by default the magnets' cutoff, else a tenth of the
+    // first catom's radius; and the centre distance that makes, at most
+    // (twice the largest catom radius plus the reach).
+    double program_reach() const;
     double program_range() const;
     std::size_t magnet_count() const;  // bodies with magnets on
     bool any_magnets() const;
