@@ -118,14 +118,14 @@ private:
 };
 
 template <class P>
-ProgramSpec spec(const char* name, std::vector<std::string> values) {
-    return ProgramSpec{name, std::move(values), [] { return std::make_unique<P>(); }};
+ProgramSpec spec(const char* name, std::vector<std::string> values, bool neighbour_events) {
+    return ProgramSpec{name, std::move(values), [] { return std::make_unique<P>(); }, neighbour_events};
 }
 
 const std::vector<ProgramSpec>& builtins() {
-    static const std::vector<ProgramSpec> all = {spec<Gradient>("gradient", {"hops"}),
-                                                 spec<Sculpt>("sculpt", {"inside"}),
-                                                 spec<Wave>("wave", {"step"})};
+    static const std::vector<ProgramSpec> all = {spec<Gradient>("gradient", {"hops"}, true),
+                                                 spec<Sculpt>("sculpt", {"inside"}, false),
+                                                 spec<Wave>("wave", {"step"}, false)};
     return all;
 }
 

@@ -112,6 +112,11 @@ struct ProgramSpec {
     std::string name;
     std::vector<std::string> values;
     std::function<std::unique_ptr<CatomProgram>()> make;
+    // Whether the program handles on_neighbour_gained / lost. false: they are
+    // never called, and a catom's neighbours are worked out only at a step
+    // where it has another event (its handlers may still ask for them), so a
+    // catom with nothing to do costs next to nothing.
+    bool neighbour_events = true;
 };
 
 // The entry point a program library exports:

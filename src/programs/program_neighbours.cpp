@@ -1,9 +1,20 @@
 // The catom programs' neighbours (see program_pass.hpp): which catoms this
-// process holds and owns, and each owned catom's neighbours, tested each step
-// among candidates listed with a skin.
-// Trade-off: candidates listed again whenever the catoms held or owned here
-// change (on several processes, every step that catoms cross between them),
-// instead of patching the lists: simple, and exact by construction.
+// process holds and owns, and the neighbours of the catoms that need them,
+// tested each step among candidates listed with a skin.
+// Every held catom has a reference position: where it was when the
+// candidates were listed, or, for one that arrived here since, where it was
+// when it arrived. A listing gives each held catom the catoms within the
+// neighbour range plus the skin of it; an arrival is searched for among all
+// catoms with a reference position (a cell grid of the listing, a hash grid of
+// the arrivals) and added to the candidates both ways. While no held catom is
+// half the skin from its reference, every pair within the range is among the
+// candidates (the triangle inequality), so the exact test on them gives the
+// lists a full search would, bit for bit.
+// Trade-off: arrivals patched in (catoms crossing between processes every
+// step no longer cost a listing) at the price of a hash map of them and their
+// extra candidates, listed afresh once they outnumber an eighth of the held
+// catoms; a listing covers the ghosts too (an owned catom may be a ghost at
+// the listing).
 #include <algorithm>
 #include <cmath>
 
@@ -12,10 +23,36 @@
 #include "util/id_map.hpp"
 
 namespace parode {
+namespace {
+
+constexpr std::uint32_t kArrived = IdMap::kNone - 1;  // lidx_: a reference position in extra_
+
+double distance2(const Vec3& a, const Vec3& b) {
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+}
+
+// Whether two centres are within `bound`: the exact test (a cheap one first
+// for those surely beyond); a catom is not its own neighbour.
+bool within(const Vec3& a, const Vec3& b, double bound) {
+    const double d2 = distance2(a, b);
+    if (d2 > bound * bound * (1 + 1e-9)) return false;
+    const double d = std::sqrt(d2);
+    return d > 0 && d <= bound;
+}
+
+// A cell's key in the arrivals' hash grid (cells from -2^20 to 2^20 a side).
+std::int64_t hash_key(std::int64_t x, std::int64_t y, std::int64_t z) {
+    constexpr std::int64_t kOff = std::int64_t{1} << 20;
+    return ((x + kOff) << 42) | ((y + kOff) << 21) | (z + kOff);
+}
+
+}  // namespace
 
 // The catoms held here this step (ascending catom index), their local
-// indices, and the owned ones.
+// indices, and the owned ones; unchanged while the world's bodies are.
 void ProgramPass::locate(const World& world) {
+    if (world.generation() == located_) return;
+    located_ = world.generation();
     for_ranges(exec_.loops(), present_.size(), 4096, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) local_k_[present_[j]] = IdMap::kNone, owned_now_[present_[j]] = 0;
     });
@@ -45,42 +82,62 @@ void ProgramPass::locate(const World& world) {
     for (const auto& o : owned) owned_.insert(owned_.end(), o.begin(), o.end());
 }
 
-// Each owned catom's neighbours from its candidates: the held catoms within
-// the neighbour range plus a skin when the candidates were listed. While no
-// held catom has moved half the skin since, every neighbour is a candidate
-// (the triangle inequality), so testing the candidates with the exact
-// distance test gives the lists a full search would, bit for bit; the lists
-// are made again when a catom moved farther, or the catoms held or owned
-// here changed. Chunks of catoms fill their own lists, joined in order.
-void ProgramPass::find_neighbours(const World& world) {
+// The held catoms' centres (by local index), and their candidates brought up
+// to date: arrivals added, listed afresh when a catom moved half the skin.
+void ProgramPass::update_candidates(const World& world) {
+    xl_.resize(world.body_count());
     const std::size_t n = present_.size();
-    std::vector<Vec3> x(n);
     for_ranges(exec_.loops(), n, 4096, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) {
             const dReal* p = dBodyGetPosition(world.body(plocal_[j]));
-            x[j] = {p[0], p[1], p[2]};
+            xl_[plocal_[j]] = {p[0], p[1], p[2]};
         }
     });
-    if (stale(x)) list_candidates(x);
+    if (lidx_.empty()) lidx_.assign(ids_.size(), IdMap::kNone);
+    if (counts_.lists == 0 || arrivals_ > n / 8 + 64) return list_candidates();
+    add_arrivals();
+    if (stale()) list_candidates();
+}
+
+// The neighbours of the catoms `which` (ascending catom indices, held here)
+// into now_, from their candidates; the others' lists are empty. Chunks of
+// catoms fill their own lists, joined in order.
+void ProgramPass::find_neighbours(const std::vector<std::uint32_t>& which) {
     std::swap(before_, now_);
-    const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
+    const std::size_t n = which.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
     now_.at.assign(ids_.size() + 1, 0);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
-            if (!owned_now_[present_[j]]) continue;
+        for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
+            const std::uint32_t k = which[o];
             const std::size_t from = mine.size();
-            for (std::uint32_t q = cand_.at[j]; q < cand_.at[j + 1]; ++q) {
-                const std::uint32_t i = cand_.ids[q];
-                if (close(x, j, i, 0.0)) mine.push_back(present_[i]);
-            }
-            now_.at[present_[j] + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            neighbours_of(k, mine);
+            now_.at[k + 1] = static_cast<std::uint32_t>(mine.size() - from);
         }
         part[c] = std::move(mine);
     });
     for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
     join(part, now_.ids);
+}
+
+// Held catom k's neighbours now (catom indices, ascending), appended to `out`.
+void ProgramPass::neighbours_of(std::uint32_t k, std::vector<std::uint32_t>& out) const {
+    const std::size_t from = out.size();
+    const Vec3& x = xl_[local_k_[k]];
+    const double rk = catom_radius(scene_, ids_[k]) + reach_;
+    const auto test = [&](std::uint32_t c) {
+        if (local_k_[c] != IdMap::kNone && within(x, xl_[local_k_[c]], rk + catom_radius(scene_, ids_[c]))) out.push_back(c);
+    };
+    const std::uint32_t l = lidx_[k];
+    if (l < kArrived) {
+        for (std::uint32_t q = cand_.at[l]; q < cand_.at[l + 1]; ++q) test(cand_.ids[q]);
+    }
+    const auto e = extra_.find(k);
+    if (e == extra_.end()) return;  // the listing's candidates alone: ascending already
+    for (std::uint32_t c : e->second.cand) test(c);
+    std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());
+    out.erase(std::unique(out.begin() + static_cast<std::ptrdiff_t>(from), out.end()), out.end());
 }
 
 // The chunks' lists one after the other in `out`, copied on the threads.
@@ -93,49 +150,121 @@ void ProgramPass::join(const std::vector<std::vector<std::uint32_t>>& part, std:
     });
 }
 
-// Whether held catoms i and j are within the neighbour range plus `extra`:
-// the exact test on the centre distance (a cheap test first for those surely
-// beyond).
-bool ProgramPass::close(const std::vector<Vec3>& x, std::size_t j, std::size_t i, double extra) const {
-    if (i == j) return false;
-    const double d2 = (x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
-                      (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]);
-    const double bound = rad_[j] + rad_[i] + reach_ + extra;
-    if (d2 > bound * bound * (1 + 1e-9)) return false;
-    const double d = std::sqrt(d2);
-    return d > 0 && d <= bound;
+// A held catom's reference position.
+const Vec3& ProgramPass::reference(std::uint32_t k) const {
+    const std::uint32_t l = lidx_[k];
+    return l < kArrived ? listed_x_[l] : extra_.at(k).x;
 }
 
-// Whether the candidates must be listed again.
-bool ProgramPass::stale(const std::vector<Vec3>& x) const {
-    if (listed_present_ != present_ || listed_owned_ != owned_) return true;
+// Whether a held catom is half the skin from its reference position.
+bool ProgramPass::stale() const {
     const double half = 0.5 * skin_ * (1 - 1e-9);
-    const std::size_t n = x.size(), chunks = chunk_count(exec_.loops(), n, 4096);
+    const std::size_t n = present_.size(), chunks = chunk_count(exec_.loops(), n, 4096);
     std::vector<double> most(chunks, 0.0);  // a maximum: the same for any split
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
-            const double d2 = (x[j][0] - listed_x_[j][0]) * (x[j][0] - listed_x_[j][0]) +
-                              (x[j][1] - listed_x_[j][1]) * (x[j][1] - listed_x_[j][1]) +
-                              (x[j][2] - listed_x_[j][2]) * (x[j][2] - listed_x_[j][2]);
-            most[c] = std::max(most[c], d2);
+            most[c] = std::max(most[c], distance2(xl_[plocal_[j]], reference(present_[j])));
         }
     });
     return *std::max_element(most.begin(), most.end()) > half * half;
 }
 
-// Centres in a cell list of edge 2 r_max + reach + skin: a dense grid over
-// the bounding box when it has at most 8 cells a catom (counting sort,
-// O(N)), else the catoms sorted by cell key; each owned catom then looks at
-// the 27 cells around its own for its candidates.
-void ProgramPass::list_candidates(const std::vector<Vec3>& x) {
-    const std::size_t n = x.size();
-    rad_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) rad_[j] = catom_radius(scene_, ids_[present_[j]]);
+// Held catoms without a reference position (arrived since the listing, in
+// catom order): each one's candidates among all catoms with one (itself
+// added to theirs), then its reference is where it is now.
+void ProgramPass::add_arrivals() {
+    const double edge = edge_ + skin_;
+    std::vector<std::uint32_t> found;
+    for (std::size_t j = 0; j < present_.size(); ++j) {
+        const std::uint32_t a = present_[j];
+        if (lidx_[a] != IdMap::kNone) continue;
+        const Vec3& x = xl_[plocal_[j]];
+        const double ra = catom_radius(scene_, ids_[a]) + reach_ + skin_;
+        found.clear();
+        listed_near(x, ra, found);
+        std::int64_t c[3];
+        for (int d = 0; d < 3; ++d) c[d] = static_cast<std::int64_t>(std::floor(x[d] / edge));
+        for (int d = 0; d < 27; ++d) {
+            const auto cell = arrived_cells_.find(hash_key(c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1));
+            if (cell == arrived_cells_.end()) continue;
+            for (std::uint32_t b : cell->second) {
+                if (within(x, extra_.at(b).x, ra + catom_radius(scene_, ids_[b]))) found.push_back(b);
+            }
+        }
+        Extra& e = extra_[a];
+        e.x = x;
+        e.cand.insert(e.cand.end(), found.begin(), found.end());
+        for (std::uint32_t b : found) extra_[b].cand.push_back(a);
+        arrived_cells_[hash_key(c[0], c[1], c[2])].push_back(a);
+        lidx_[a] = kArrived;
+        ++arrivals_;
+    }
+}
+
+// The listed catoms within `ra` plus their radius of `x` (by their
+// reference positions), appended to `out` as catom indices.
+void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const {
+    const double edge = edge_ + skin_;
+    std::int64_t c[3];
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>(std::floor((x[a] - low_[a]) / edge));
+    for (int d = 0; d < 27; ++d) {
+        const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
+        if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
+        const auto test = [&](std::uint32_t l) {
+            if (within(x, listed_x_[l], ra + catom_radius(scene_, ids_[listed_[l]]))) out.push_back(listed_[l]);
+        };
+        if (!start_.empty()) {
+            const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
+            for (std::uint32_t s = start_[cell]; s < start_[cell + 1]; ++s) test(order_[s]);
+        } else {
+            const std::int64_t want = (cx << 42) | (cy << 21) | cz;
+            auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
+            for (; it != sorted_.end() && it->first == want; ++it) test(it->second);
+        }
+    }
+}
+
+// Every held catom's candidates afresh, from a cell list of edge
+// 2 r_max + reach + skin: a dense grid over the bounding box when it has at
+// most 8 cells a catom (counting sort, O(N)), else the catoms sorted by cell
+// key; each catom then looks at the 27 cells around its own.
+void ProgramPass::list_candidates() {
+    for (std::uint32_t k : listed_) lidx_[k] = IdMap::kNone;
+    for (const auto& e : extra_) lidx_[e.first] = IdMap::kNone;
+    extra_.clear();
+    arrived_cells_.clear();
+    arrivals_ = 0;
+    listed_ = present_;
+    const std::size_t n = listed_.size();
+    listed_x_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) listed_x_[j] = xl_[plocal_[j]], lidx_[listed_[j]] = static_cast<std::uint32_t>(j);
+    grid_listed();
+    const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
+    std::vector<std::vector<std::uint32_t>> part(chunks);
+    cand_.at.assign(n + 1, 0);
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        std::vector<std::uint32_t> mine;
+        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
+            const std::size_t from = mine.size();
+            listed_near(listed_x_[j], catom_radius(scene_, ids_[listed_[j]]) + reach_ + skin_, mine);
+            std::sort(mine.begin() + static_cast<std::ptrdiff_t>(from), mine.end());
+            cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
+        }
+        part[c] = std::move(mine);
+    });
+    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
+    join(part, cand_.ids);
+    ++counts_.lists;
+}
+
+// The cell list of the listed catoms' positions (start_ and order_, or sorted_).
+void ProgramPass::grid_listed() {
+    const std::size_t n = listed_x_.size();
     const double edge = edge_ + skin_;
     Vec3 high{-1e300, -1e300, -1e300};
     low_ = {1e300, 1e300, 1e300};
-    for (std::size_t j = 0; j < n; ++j) {
-        for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[j][a]), high[a] = std::max(high[a], x[j][a]);
+    for (const Vec3& x : listed_x_) {
+        for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[a]), high[a] = std::max(high[a], x[a]);
     }
     double cells = 1;
     for (int a = 0; a < 3; ++a) {
@@ -150,7 +279,8 @@ void ProgramPass::list_candidates(const std::vector<Vec3>& x) {
         order_.resize(n);
         std::vector<std::uint32_t> of(n);
         for (std::size_t j = 0; j < n; ++j) {
-            of[j] = static_cast<std::uint32_t>((cell(x[j], 0) * dims_[1] + cell(x[j], 1)) * dims_[2] + cell(x[j], 2));
+            const Vec3& x = listed_x_[j];
+            of[j] = static_cast<std::uint32_t>((cell(x, 0) * dims_[1] + cell(x, 1)) * dims_[2] + cell(x, 2));
             ++start_[of[j] + 1];
         }
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
@@ -159,54 +289,11 @@ void ProgramPass::list_candidates(const std::vector<Vec3>& x) {
     } else {
         sorted_.resize(n);
         for (std::size_t j = 0; j < n; ++j) {
-            sorted_[j] = {(cell(x[j], 0) << 42) | (cell(x[j], 1) << 21) | cell(x[j], 2), static_cast<std::uint32_t>(j)};
+            const Vec3& x = listed_x_[j];
+            sorted_[j] = {(cell(x, 0) << 42) | (cell(x, 1) << 21) | cell(x, 2), static_cast<std::uint32_t>(j)};
         }
         std::sort(sorted_.begin(), sorted_.end());
     }
-    const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
-    std::vector<std::vector<std::uint32_t>> part(chunks);
-    cand_.at.assign(n + 1, 0);
-    exec_.loops().run(chunks, n, [&](std::size_t c) {
-        std::vector<std::uint32_t> mine;
-        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
-            if (!owned_now_[present_[j]]) continue;
-            const std::size_t from = mine.size();
-            candidates_of(j, x, mine);
-            cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
-        }
-        part[c] = std::move(mine);
-    });
-    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
-    join(part, cand_.ids);
-    listed_x_ = x;
-    listed_present_ = present_;
-    listed_owned_ = owned_;
-    ++counts_.lists;
-}
-
-// The candidates (held-catom indices, ascending) of held catom j, appended to `out`.
-void ProgramPass::candidates_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const {
-    const std::size_t from = out.size();
-    const double edge = edge_ + skin_;
-    std::int64_t c[3];
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>((x[j][a] - low_[a]) / edge);
-    for (int d = 0; d < 27; ++d) {
-        const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
-        if (!start_.empty()) {
-            if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
-            const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
-            for (std::uint32_t s = start_[cell]; s < start_[cell + 1]; ++s) {
-                if (close(x, j, order_[s], skin_)) out.push_back(order_[s]);
-            }
-        } else {
-            const std::int64_t want = (cx << 42) | (cy << 21) | cz;
-            auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
-            for (; it != sorted_.end() && it->first == want; ++it) {
-                if (close(x, j, it->second, skin_)) out.push_back(it->second);
-            }
-        }
-    }
-    std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());
 }
 
 }  // namespace parode

@@ -249,15 +249,15 @@ ProgramPass::~ProgramPass() = default;
 
 // Only catoms with something to handle run (not started yet, a neighbour
 // lost or gained, mail, a timer due): the others' records stay as they are.
-void ProgramPass::run_handlers(const World& world, double time) {
-    const bool first = before_.at.empty();
-    const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 256);
+void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time) {
+    const bool diff = spec_->neighbour_events, first = before_.at.empty();
+    const std::size_t n = which.size(), chunks = chunk_count(exec_.loops(), n, 256);
     std::vector<std::vector<std::uint32_t>> ran(chunks);
     exec_.loops().run(chunks, n, [&](std::size_t ch) {
         std::vector<std::uint32_t> lost, gained;
         std::vector<Neighbour> scratch;
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
-            const std::uint32_t k = owned_[o];
+            const std::uint32_t k = which[o];
             Catom& c = catoms_[k];
             const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
             const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
@@ -267,8 +267,7 @@ void ProgramPass::run_handlers(const World& world, double time) {
             } else if (!first) {
                 b0 = before_.ids.data() + before_.at[k], b1 = before_.ids.data() + before_.at[k + 1];
             }
-            missing(b0, b1, n0, n1, ids_, lost);
-            missing(n0, n1, b0, b1, ids_, gained);
+            if (diff) missing(b0, b1, n0, n1, ids_, lost), missing(n0, n1, b0, b1, ids_, gained);
             if (!c.outbox.empty()) c.outbox.clear();
             const bool due = c.timer_at >= 0 && time >= c.timer_at - 1e-12;
             if (c.started && lost.empty() && gained.empty() && c.inbox.empty() && !due) continue;
@@ -283,6 +282,22 @@ void ProgramPass::run_handlers(const World& world, double time) {
     arrived_.clear();
     ran_.clear();
     for (const auto& r : ran) ran_.insert(ran_.end(), r.begin(), r.end());  // ascending: chunks in order
+}
+
+// The owned catoms with an event other than a neighbour's (not started yet,
+// mail, a timer due), ascending.
+std::vector<std::uint32_t> ProgramPass::due(double time) const {
+    const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 4096);
+    std::vector<std::vector<std::uint32_t>> part(chunks);
+    exec_.loops().run(chunks, n, [&](std::size_t ch) {
+        for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
+            const Catom& c = catoms_[owned_[o]];
+            if (!c.started || !c.inbox.empty() || (c.timer_at >= 0 && time >= c.timer_at - 1e-12)) part[ch].push_back(owned_[o]);
+        }
+    });
+    std::vector<std::uint32_t> out;
+    for (const auto& p : part) out.insert(out.end(), p.begin(), p.end());
+    return out;
 }
 
 // In id order: the mail for next step (each receiver's inbox in sender
@@ -301,11 +316,15 @@ void ProgramPass::finish_step(World& world) {
         counted[1] += c.events;
         c.events = 0;
     }
-    exchange_mail(world, failed);
+    {
+        SubstageTimer t(counts_.parts, "mail");
+        exchange_mail(world, failed);
+    }
     if (!failed.empty()) {
         const std::uint32_t k = *std::min_element(failed.begin(), failed.end());
         throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + catoms_[k].error);
     }
+    SubstageTimer t(counts_.parts, "digest");
     if (distributed()) coll_->sum(counted, 2);
     counts_.messages += static_cast<std::uint64_t>(counted[0]);
     counts_.events += static_cast<std::uint64_t>(counted[1]);
@@ -332,8 +351,8 @@ void ProgramPass::refresh_world(World& world, bool all) {
                 for (std::size_t v = 0; v < spec_->values.size(); ++v) {  // each catom its own local slot
                     world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
                 }
-                digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
             }
+            if (dirty_[k]) digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
             sum += digest_[k];
         }
         sums[c] = sum;
@@ -345,10 +364,26 @@ void ProgramPass::refresh_world(World& world, bool all) {
 
 void ProgramPass::apply(World& world, double time) {
     const double t0 = now_seconds();
-    locate(world);
-    if (distributed()) transfer(world);
-    find_neighbours(world);
-    run_handlers(world, time);
+    {
+        SubstageTimer t(counts_.parts, "locate");
+        locate(world);
+    }
+    if (distributed()) {
+        SubstageTimer t(counts_.parts, "transfer");
+        transfer(world);
+    }
+    // With neighbour events, every owned catom's neighbours; without, only
+    // those of the catoms that run (their handlers may ask).
+    const std::vector<std::uint32_t> which = spec_->neighbour_events ? owned_ : due(time);
+    if (!which.empty()) {
+        SubstageTimer t(counts_.parts, "neighbours");
+        update_candidates(world);
+        find_neighbours(which);
+    }
+    {
+        SubstageTimer t(counts_.parts, "handlers");
+        run_handlers(world, which, time);
+    }
     finish_step(world);
     ++step_;
     ++counts_.steps;

@@ -39,6 +39,7 @@
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
 #include "programs/program.hpp"
+#include "util/substages.hpp"
 
 namespace parode {
 
@@ -46,6 +47,10 @@ struct ProgramCounts {
     std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: every process's
     double seconds = 0;                                  // this process's
     std::uint64_t lists = 0;                             // this process's listings of candidate neighbours
+    // This process's seconds in each part of the pass: locate, transfer (the
+    // migrants' records, a collective), neighbours, handlers, mail (a
+    // collective: it also waits for the slowest process), digest.
+    Substages parts;
 };
 
 class ProgramPass final : public ForcePass {
@@ -77,13 +82,18 @@ public:
 private:
     void locate(const World& world);
     void transfer(World& world);
-    void find_neighbours(const World& world);
-    bool close(const std::vector<Vec3>& x, std::size_t j, std::size_t i, double extra) const;
-    bool stale(const std::vector<Vec3>& x) const;
-    void list_candidates(const std::vector<Vec3>& x);
-    void candidates_of(std::size_t j, const std::vector<Vec3>& x, std::vector<std::uint32_t>& out) const;
+    void update_candidates(const World& world);
+    void find_neighbours(const std::vector<std::uint32_t>& which);
+    void neighbours_of(std::uint32_t k, std::vector<std::uint32_t>& out) const;
+    const Vec3& reference(std::uint32_t k) const;
+    bool stale() const;
+    void add_arrivals();
+    void listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const;
+    void list_candidates();
+    void grid_listed();
     void join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const;
-    void run_handlers(const World& world, double time);
+    std::vector<std::uint32_t> due(double time) const;
+    void run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::uint32_t>& failed);
     void refresh_world(World& world, bool all);
@@ -121,20 +131,31 @@ private:
     struct Csr {
         std::vector<std::uint32_t> at, ids;
     } now_, before_;
-    // The owned catoms' candidate neighbours (CSR over the held catoms, as
-    // present_: held-catom indices, ascending) and what they were listed
-    // from: positions, held and owned catoms (counts_.lists: how many times).
+    // The candidate neighbours: the listing's (CSR over the catoms listed,
+    // listed_, by their index there: catom indices, ascending), each catom's
+    // reference position (listed_x_ by that index, or extra_'s x for one that
+    // arrived since) and index there (lidx_ by catom index; kNone: no
+    // reference), arrivals' candidates and the others' added to them (extra_),
+    // the arrivals in a hash grid, and how many arrived since the listing.
     Csr cand_;
+    std::vector<std::uint32_t> listed_, lidx_;
     std::vector<Vec3> listed_x_;
-    std::vector<std::uint32_t> listed_present_, listed_owned_;
-    // The cell list of the last listing over the held catoms: a dense grid
-    // over their bounding box (cell starts into `order`), or, when that would
-    // hold more than 8 cells a catom, the catoms sorted by cell key.
+    struct Extra {
+        Vec3 x{0, 0, 0};
+        std::vector<std::uint32_t> cand;
+    };
+    std::unordered_map<std::uint32_t, Extra> extra_;
+    std::unordered_map<std::int64_t, std::vector<std::uint32_t>> arrived_cells_;
+    std::size_t arrivals_ = 0;
+    std::vector<Vec3> xl_;  // the held catoms' centres this step, by local index
+    // The listing's cell list: a dense grid over the listed catoms' bounding
+    // box (cell starts into `order`), or, when that would hold more than 8
+    // cells a catom, the catoms sorted by cell key.
     std::vector<std::uint32_t> start_, order_;
-    std::vector<double> rad_;     // radius of each held catom (as present_)
     std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
     Vec3 low_{0, 0, 0};
     std::int64_t dims_[3] = {0, 0, 0};
+    std::uint64_t located_ = ~0ULL;  // the world's generation when the catoms were located
     long step_ = 0;
     ProgramCounts counts_;
 };

@@ -97,7 +97,7 @@ void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
     std::vector<unsigned char> bytes;
     c.program->save(bytes);
     b.put_bytes(bytes.data(), bytes.size());
-    const bool listed = k + 1 < now_.at.size();
+    const bool listed = spec_->neighbour_events && k + 1 < now_.at.size();  // without the events, not kept
     const std::uint32_t n0 = listed ? now_.at[k] : 0, n1 = listed ? now_.at[k + 1] : 0;
     b.put_bytes(now_.ids.data() + n0, sizeof(std::uint32_t) * (n1 - n0));
 }
@@ -293,10 +293,12 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     }
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
     std::fill(current_.begin(), current_.end(), 1);  // every process holds every catom's state now
+    std::fill(dirty_.begin(), dirty_.end(), 1);
     last_owned_.clear();
     for (std::size_t k = 0; k < catoms_.size(); ++k) {
         world.switch_poles(ids_[k], catoms_[k].magnets ? catoms_[k].poles_off : World::kAllPolesOff);
     }
+    located_ = ~0ULL;
     locate(world);
     refresh_world(world, true);
 }

@@ -104,7 +104,7 @@ void colour_json(const Collectives& domain, const ColourTimes& t, nlohmann::json
 
 // The catom program: what ran, its messages and events per step, its time,
 // and (up to kListedCatoms catoms) every catom's values by name.
-nlohmann::json program_json(const ProgramPass& pass) {
+nlohmann::json program_json(const Collectives& domain, const ProgramPass& pass) {
     constexpr std::size_t kListedCatoms = 100000;
     const ProgramCounts& c = pass.counts();
     const double steps = c.steps ? static_cast<double>(c.steps) : 1.0;
@@ -114,6 +114,9 @@ nlohmann::json program_json(const ProgramPass& pass) {
                           {"events_per_step", c.events / steps}, {"seconds", c.seconds},
                           {"neighbour_listings", c.lists},
                           {"value_names", pass.spec().values}};
+    nlohmann::json parts = nlohmann::json::object();  // collective: every process has timed every part
+    for (const auto& [name, seconds] : c.parts.items()) parts[name] = spread(domain, seconds);
+    out["parts_s"] = parts;
     if (pass.catoms().size() > kListedCatoms) return out;
     out["ids"] = pass.catoms();
     nlohmann::json values = nlohmann::json::object();
@@ -235,7 +238,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["state_hash"] = hex64(p.last().state_hash);
     r["diagnostics"] = diagnostics_json(p.last(), p.totals());
     r["guard"] = p.guard().describe();
-    if (p.program()) r["program"] = program_json(*p.program());
+    if (p.program()) r["program"] = program_json(domain, *p.program());
     r["parallel"] = p.decomposition().report();
     if (domain.distributed()) r["parallel"]["solver_exchange_seconds"] = spread(domain, solver_exchange_seconds(p));
     if (const ColourTimes* t = p.solver().colour_times()) colour_json(domain, *t, r["parallel"]);
