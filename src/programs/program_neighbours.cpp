@@ -153,7 +153,7 @@ void ProgramPass::join(const std::vector<std::vector<std::uint32_t>>& part, std:
 // A held catom's reference position.
 const Vec3& ProgramPass::reference(std::uint32_t k) const {
     const std::uint32_t l = lidx_[k];
-    return l < kArrived ? listed_x_[l] : extra_.at(k).x;
+    return l < kArrived ? listed_[l].x : extra_.at(k).x;
 }
 
 // Whether a held catom is half the skin from its reference position.
@@ -202,68 +202,75 @@ void ProgramPass::add_arrivals() {
 }
 
 // The listed catoms within `ra` plus their radius of `x` (by their
-// reference positions), appended to `out` as catom indices.
+// reference positions), appended to `out` as catom indices: the 27 cells
+// around x's, as 9 runs of 3 cells along z (consecutive in the listing).
 void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const {
     const double edge = edge_ + skin_;
     std::int64_t c[3];
     for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>(std::floor((x[a] - low_[a]) / edge));
-    for (int d = 0; d < 27; ++d) {
-        const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 % 3 - 1, cz = c[2] + d / 9 - 1;
-        if (cx < 0 || cy < 0 || cz < 0 || cx >= dims_[0] || cy >= dims_[1] || cz >= dims_[2]) continue;
-        const auto test = [&](std::uint32_t l) {
-            if (within(x, listed_x_[l], ra + catom_radius(scene_, ids_[listed_[l]]))) out.push_back(listed_[l]);
-        };
+    const std::int64_t z0 = std::max<std::int64_t>(c[2] - 1, 0), z1 = std::min<std::int64_t>(c[2] + 1, dims_[2] - 1);
+    if (z0 > z1) return;
+    for (int d = 0; d < 9; ++d) {
+        const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 - 1;
+        if (cx < 0 || cy < 0 || cx >= dims_[0] || cy >= dims_[1]) continue;
+        std::size_t s0, s1;
         if (!start_.empty()) {
-            const std::size_t cell = static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz);
-            for (std::uint32_t s = start_[cell]; s < start_[cell + 1]; ++s) test(order_[s]);
+            const auto cell = [&](std::int64_t cz) { return static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz); };
+            s0 = start_[cell(z0)], s1 = start_[cell(z1) + 1];
         } else {
-            const std::int64_t want = (cx << 42) | (cy << 21) | cz;
-            auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(want, std::uint32_t{0}));
-            for (; it != sorted_.end() && it->first == want; ++it) test(it->second);
+            const auto at = [&](std::int64_t cz) {
+                return static_cast<std::size_t>(std::lower_bound(keys_.begin(), keys_.end(), (cx << 42) | (cy << 21) | cz) - keys_.begin());
+            };
+            s0 = at(z0), s1 = at(z1 + 1);
+        }
+        for (std::size_t l = s0; l < s1; ++l) {
+            const Listed& e = listed_[l];
+            if (within(x, e.x, ra + e.r)) out.push_back(e.k);
         }
     }
 }
 
 // Every held catom's candidates afresh, from a cell list of edge
-// 2 r_max + reach + skin: a dense grid over the bounding box when it has at
-// most 8 cells a catom (counting sort, O(N)), else the catoms sorted by cell
-// key; each catom then looks at the 27 cells around its own.
+// 2 r_max + reach + skin: the held catoms sorted by cell (a counting sort
+// over a dense grid of their bounding box when it has at most 8 cells a
+// catom, O(N); else by cell key), each then looking at the 27 cells around
+// its own.
 void ProgramPass::list_candidates() {
-    for (std::uint32_t k : listed_) lidx_[k] = IdMap::kNone;
+    for (const Listed& e : listed_) lidx_[e.k] = IdMap::kNone;
     for (const auto& e : extra_) lidx_[e.first] = IdMap::kNone;
     extra_.clear();
     arrived_cells_.clear();
     arrivals_ = 0;
-    listed_ = present_;
-    const std::size_t n = listed_.size();
-    listed_x_.resize(n);
-    for (std::size_t j = 0; j < n; ++j) listed_x_[j] = xl_[plocal_[j]], lidx_[listed_[j]] = static_cast<std::uint32_t>(j);
     grid_listed();
+    const std::size_t n = listed_.size();
     const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
     cand_.at.assign(n + 1, 0);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
+        for (std::size_t l = chunk_begin(n, chunks, c); l < chunk_begin(n, chunks, c + 1); ++l) {
             const std::size_t from = mine.size();
-            listed_near(listed_x_[j], catom_radius(scene_, ids_[listed_[j]]) + reach_ + skin_, mine);
+            listed_near(listed_[l].x, listed_[l].r + reach_ + skin_, mine);
             std::sort(mine.begin() + static_cast<std::ptrdiff_t>(from), mine.end());
-            cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            cand_.at[l + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            lidx_[listed_[l].k] = static_cast<std::uint32_t>(l);  // one catom a slot: no two threads write the same
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
+    for (std::size_t l = 0; l < n; ++l) cand_.at[l + 1] += cand_.at[l];
     join(part, cand_.ids);
     ++counts_.lists;
 }
 
-// The cell list of the listed catoms' positions (start_ and order_, or sorted_).
+// The held catoms, with their centres and radii, into listed_ sorted by
+// cell: start_ (dense grid) or keys_ (each entry's cell key) find a cell's.
 void ProgramPass::grid_listed() {
-    const std::size_t n = listed_x_.size();
+    const std::size_t n = present_.size();
     const double edge = edge_ + skin_;
     Vec3 high{-1e300, -1e300, -1e300};
     low_ = {1e300, 1e300, 1e300};
-    for (const Vec3& x : listed_x_) {
+    for (std::size_t j = 0; j < n; ++j) {
+        const Vec3& x = xl_[plocal_[j]];
         for (int a = 0; a < 3; ++a) low_[a] = std::min(low_[a], x[a]), high[a] = std::max(high[a], x[a]);
     }
     double cells = 1;
@@ -272,27 +279,32 @@ void ProgramPass::grid_listed() {
         cells *= static_cast<double>(dims_[a]);
     }
     const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge); };
-    sorted_.clear();
+    const auto entry = [&](std::size_t j) {
+        return Listed{xl_[plocal_[j]], catom_radius(scene_, ids_[present_[j]]), present_[j]};
+    };
+    listed_.resize(n);
     start_.clear();
+    keys_.clear();
     if (cells <= 8.0 * static_cast<double>(n) + 64) {
         start_.assign(static_cast<std::size_t>(cells) + 1, 0);
-        order_.resize(n);
         std::vector<std::uint32_t> of(n);
         for (std::size_t j = 0; j < n; ++j) {
-            const Vec3& x = listed_x_[j];
+            const Vec3& x = xl_[plocal_[j]];
             of[j] = static_cast<std::uint32_t>((cell(x, 0) * dims_[1] + cell(x, 1)) * dims_[2] + cell(x, 2));
             ++start_[of[j] + 1];
         }
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
-        for (std::size_t j = 0; j < n; ++j) order_[fill[of[j]]++] = static_cast<std::uint32_t>(j);
+        for (std::size_t j = 0; j < n; ++j) listed_[fill[of[j]]++] = entry(j);
     } else {
-        sorted_.resize(n);
+        std::vector<std::pair<std::int64_t, std::uint32_t>> sorted(n);
         for (std::size_t j = 0; j < n; ++j) {
-            const Vec3& x = listed_x_[j];
-            sorted_[j] = {(cell(x, 0) << 42) | (cell(x, 1) << 21) | cell(x, 2), static_cast<std::uint32_t>(j)};
+            const Vec3& x = xl_[plocal_[j]];
+            sorted[j] = {(cell(x, 0) << 42) | (cell(x, 1) << 21) | cell(x, 2), static_cast<std::uint32_t>(j)};
         }
-        std::sort(sorted_.begin(), sorted_.end());
+        std::sort(sorted.begin(), sorted.end());
+        keys_.resize(n);
+        for (std::size_t l = 0; l < n; ++l) keys_[l] = sorted[l].first, listed_[l] = entry(sorted[l].second);
     }
 }
 

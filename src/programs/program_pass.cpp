@@ -9,6 +9,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <exception>
+#include <functional>
 
 #include "programs/catom_state.hpp"
 #include "util/errors.hpp"
@@ -22,13 +23,16 @@ namespace {
 
 const char* kEventNames[] = {"start", "neighbour lost", "neighbour gained", "message", "timer"};
 
-// The neighbours of one catom as the pass keeps them: catom indices, their
-// gids and local indices, and the world to read positions from.
+// The neighbours of one catom as the pass keeps them: catom indices (or,
+// when `begin` is null, a function listing them on demand into a scratch
+// vector), their gids and local indices, and the world to read positions from.
 struct NeighbourRange {
     const std::uint32_t *begin, *end;
     const std::vector<std::uint32_t>& gids;
     const std::vector<std::uint32_t>& locals;
     const World& world;
+    std::function<void(std::vector<std::uint32_t>&)> list = nullptr;
+    std::vector<std::uint32_t>* listed = nullptr;
 };
 
 // One catom's view during its handlers: pose and velocity read from ODE;
@@ -92,7 +96,13 @@ private:
     void build() const {
         const dReal* p = dBodyGetPosition(body_);
         nbrs_.clear();
-        for (const std::uint32_t* j = range_.begin; j != range_.end; ++j) {
+        const std::uint32_t *j0 = range_.begin, *j1 = range_.end;
+        if (!j0) {
+            range_.listed->clear();
+            range_.list(*range_.listed);
+            j0 = range_.listed->data(), j1 = j0 + range_.listed->size();
+        }
+        for (const std::uint32_t* j = j0; j != j1; ++j) {
             const dReal* q = dBodyGetPosition(range_.world.body(range_.locals[*j]));
             const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
             const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -256,23 +266,22 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
     exec_.loops().run(chunks, n, [&](std::size_t ch) {
         std::vector<std::uint32_t> lost, gained;
         std::vector<Neighbour> scratch;
+        std::vector<std::uint32_t> listed;
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
             const std::uint32_t k = which[o];
             Catom& c = catoms_[k];
-            const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
-            const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
-            const std::uint32_t *b0 = nullptr, *b1 = nullptr;
-            if (const auto a = arrived_.find(k); a != arrived_.end()) {
-                b0 = a->second.data(), b1 = b0 + a->second.size();
-            } else if (!first) {
-                b0 = before_.ids.data() + before_.at[k], b1 = before_.ids.data() + before_.at[k + 1];
+            NeighbourRange range{nullptr, nullptr, ids_, local_k_, world};
+            if (diff) {
+                range.begin = now_.ids.data() + now_.at[k], range.end = now_.ids.data() + now_.at[k + 1];
+                neighbour_changes(k, first, lost, gained);
+            } else {  // worked out only if a handler asks
+                range.list = [this, k](std::vector<std::uint32_t>& out) { neighbours_of(k, out); };
+                range.listed = &listed;
             }
-            if (diff) missing(b0, b1, n0, n1, ids_, lost), missing(n0, n1, b0, b1, ids_, gained);
             if (!c.outbox.empty()) c.outbox.clear();
             const bool due = c.timer_at >= 0 && time >= c.timer_at - 1e-12;
             if (c.started && lost.empty() && gained.empty() && c.inbox.empty() && !due) continue;
             c.error.clear();
-            const NeighbourRange range{n0, n1, ids_, local_k_, world};
             Context ctx(c, ids_[k], world.body(local_k_[k]), step_, time, scene_, range, scratch);
             run_catom(c, ctx, lost, gained, time);
             dirty_[k] = 1;  // one byte per catom: no two threads write the same
@@ -282,6 +291,22 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
     arrived_.clear();
     ran_.clear();
     for (const auto& r : ran) ran_.insert(ran_.end(), r.begin(), r.end());  // ascending: chunks in order
+}
+
+// The neighbours catom k lost and gained since last step (by gid): against
+// its list of last step, or the one it arrived with from another process.
+void ProgramPass::neighbour_changes(std::uint32_t k, bool first, std::vector<std::uint32_t>& lost,
+                                   std::vector<std::uint32_t>& gained) const {
+    const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
+    const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
+    const std::uint32_t *b0 = nullptr, *b1 = nullptr;
+    if (const auto a = arrived_.find(k); a != arrived_.end()) {
+        b0 = a->second.data(), b1 = b0 + a->second.size();
+    } else if (!first) {
+        b0 = before_.ids.data() + before_.at[k], b1 = before_.ids.data() + before_.at[k + 1];
+    }
+    missing(b0, b1, n0, n1, ids_, lost);
+    missing(n0, n1, b0, b1, ids_, gained);
 }
 
 // The owned catoms with an event other than a neighbour's (not started yet,
@@ -372,13 +397,14 @@ void ProgramPass::apply(World& world, double time) {
         SubstageTimer t(counts_.parts, "transfer");
         transfer(world);
     }
-    // With neighbour events, every owned catom's neighbours; without, only
-    // those of the catoms that run (their handlers may ask).
+    // With neighbour events, every owned catom's neighbours; without, the
+    // candidates made ready for the catoms that run (a handler that asks gets
+    // its catom's neighbours then).
     const std::vector<std::uint32_t> which = spec_->neighbour_events ? owned_ : due(time);
     if (!which.empty()) {
         SubstageTimer t(counts_.parts, "neighbours");
         update_candidates(world);
-        find_neighbours(which);
+        if (spec_->neighbour_events) find_neighbours(which);
     }
     {
         SubstageTimer t(counts_.parts, "handlers");

@@ -93,6 +93,8 @@ private:
     void grid_listed();
     void join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const;
     std::vector<std::uint32_t> due(double time) const;
+    void neighbour_changes(std::uint32_t k, bool first, std::vector<std::uint32_t>& lost,
+                           std::vector<std::uint32_t>& gained) const;
     void run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::uint32_t>& failed);
@@ -131,15 +133,21 @@ private:
     struct Csr {
         std::vector<std::uint32_t> at, ids;
     } now_, before_;
-    // The candidate neighbours: the listing's (CSR over the catoms listed,
-    // listed_, by their index there: catom indices, ascending), each catom's
-    // reference position (listed_x_ by that index, or extra_'s x for one that
-    // arrived since) and index there (lidx_ by catom index; kNone: no
-    // reference), arrivals' candidates and the others' added to them (extra_),
-    // the arrivals in a hash grid, and how many arrived since the listing.
+    // The candidate neighbours: the catoms listed (listed_: centre, radius,
+    // catom index, sorted by cell) and each one's candidates (cand_, CSR by
+    // that order: catom indices, ascending); each catom's reference position
+    // (its listed_ centre, or extra_'s x for one that arrived since) and slot
+    // (lidx_ by catom index; kNone: no reference); arrivals' candidates and
+    // the others' added to them (extra_), the arrivals in a hash grid, and
+    // how many arrived since the listing.
+    struct Listed {
+        Vec3 x;
+        double r;
+        std::uint32_t k;
+    };
     Csr cand_;
-    std::vector<std::uint32_t> listed_, lidx_;
-    std::vector<Vec3> listed_x_;
+    std::vector<Listed> listed_;
+    std::vector<std::uint32_t> lidx_;
     struct Extra {
         Vec3 x{0, 0, 0};
         std::vector<std::uint32_t> cand;
@@ -148,11 +156,11 @@ private:
     std::unordered_map<std::int64_t, std::vector<std::uint32_t>> arrived_cells_;
     std::size_t arrivals_ = 0;
     std::vector<Vec3> xl_;  // the held catoms' centres this step, by local index
-    // The listing's cell list: a dense grid over the listed catoms' bounding
-    // box (cell starts into `order`), or, when that would hold more than 8
-    // cells a catom, the catoms sorted by cell key.
-    std::vector<std::uint32_t> start_, order_;
-    std::vector<std::pair<std::int64_t, std::uint32_t>> sorted_;
+    // The listing's cells: a dense grid over the listed catoms' bounding box
+    // (start_: where each cell's catoms begin in listed_), or, when that
+    // would hold more than 8 cells a catom, each listed catom's cell key.
+    std::vector<std::uint32_t> start_;
+    std::vector<std::int64_t> keys_;
     Vec3 low_{0, 0, 0};
     std::int64_t dims_[3] = {0, 0, 0};
     std::uint64_t located_ = ~0ULL;  // the world's generation when the catoms were located
