@@ -153,7 +153,7 @@ void ProgramPass::join(const std::vector<std::vector<std::uint32_t>>& part, std:
 // A held catom's reference position.
 const Vec3& ProgramPass::reference(std::uint32_t k) const {
     const std::uint32_t l = lidx_[k];
-    return l < kArrived ? listed_[l].x : extra_.at(k).x;
+    return l < kArrived ? listed_x_[l] : extra_.at(k).x;
 }
 
 // Whether a held catom is half the skin from its reference position.
@@ -225,7 +225,7 @@ void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_
         }
         for (std::size_t l = s0; l < s1; ++l) {
             const Listed& e = listed_[l];
-            if (within(x, e.x, ra + e.r)) out.push_back(e.k);
+            if (within(x, e.x, ra + static_cast<double>(e.r))) out.push_back(e.k);
         }
     }
 }
@@ -236,28 +236,31 @@ void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_
 // catom, O(N); else by cell key), each then looking at the 27 cells around
 // its own.
 void ProgramPass::list_candidates() {
-    for (const Listed& e : listed_) lidx_[e.k] = IdMap::kNone;
+    for (std::uint32_t k : listed_k_) lidx_[k] = IdMap::kNone;
     for (const auto& e : extra_) lidx_[e.first] = IdMap::kNone;
     extra_.clear();
     arrived_cells_.clear();
     arrivals_ = 0;
     grid_listed();
-    const std::size_t n = listed_.size();
+    const std::size_t n = present_.size();
+    listed_k_ = present_;
+    listed_x_.resize(n);
     const std::size_t chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
     cand_.at.assign(n + 1, 0);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        for (std::size_t l = chunk_begin(n, chunks, c); l < chunk_begin(n, chunks, c + 1); ++l) {
+        for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
             const std::size_t from = mine.size();
-            listed_near(listed_[l].x, listed_[l].r + reach_ + skin_, mine);
+            const Vec3& x = listed_x_[j] = xl_[plocal_[j]];
+            listed_near(x, catom_radius(scene_, ids_[present_[j]]) + reach_ + skin_, mine);
             std::sort(mine.begin() + static_cast<std::ptrdiff_t>(from), mine.end());
-            cand_.at[l + 1] = static_cast<std::uint32_t>(mine.size() - from);
-            lidx_[listed_[l].k] = static_cast<std::uint32_t>(l);  // one catom a slot: no two threads write the same
+            cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            lidx_[present_[j]] = static_cast<std::uint32_t>(j);  // one catom a slot: no two threads write the same
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t l = 0; l < n; ++l) cand_.at[l + 1] += cand_.at[l];
+    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
     join(part, cand_.ids);
     ++counts_.lists;
 }
@@ -280,7 +283,10 @@ void ProgramPass::grid_listed() {
     }
     const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge); };
     const auto entry = [&](std::size_t j) {
-        return Listed{xl_[plocal_[j]], catom_radius(scene_, ids_[present_[j]]), present_[j]};
+        const double r = catom_radius(scene_, ids_[present_[j]]);
+        float rf = static_cast<float>(r);
+        if (static_cast<double>(rf) < r) rf = std::nextafter(rf, 2 * rf + 1);  // never below the radius
+        return Listed{xl_[plocal_[j]], rf, present_[j]};
     };
     listed_.resize(n);
     start_.clear();

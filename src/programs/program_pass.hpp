@@ -133,21 +133,24 @@ private:
     struct Csr {
         std::vector<std::uint32_t> at, ids;
     } now_, before_;
-    // The candidate neighbours: the catoms listed (listed_: centre, radius,
-    // catom index, sorted by cell) and each one's candidates (cand_, CSR by
-    // that order: catom indices, ascending); each catom's reference position
-    // (its listed_ centre, or extra_'s x for one that arrived since) and slot
-    // (lidx_ by catom index; kNone: no reference); arrivals' candidates and
-    // the others' added to them (extra_), the arrivals in a hash grid, and
-    // how many arrived since the listing.
+    // The candidate neighbours: the catoms listed (listed_k_, ascending),
+    // their centres then (listed_x_) and candidates (cand_: catom indices,
+    // ascending), by their place in listed_k_; the same catoms sorted by cell
+    // with their centres and radii (listed_, for the lookups; a radius kept
+    // in a float rounded up, so the bound can only widen); each catom's reference position (listed_x_, or
+    // extra_'s x for one that arrived since) and place (lidx_ by catom index;
+    // kNone: no reference); arrivals' candidates and the others' added to
+    // them (extra_), the arrivals in a hash grid, and how many arrived since
+    // the listing.
     struct Listed {
         Vec3 x;
-        double r;
+        float r;
         std::uint32_t k;
     };
     Csr cand_;
     std::vector<Listed> listed_;
-    std::vector<std::uint32_t> lidx_;
+    std::vector<std::uint32_t> listed_k_, lidx_;
+    std::vector<Vec3> listed_x_;
     struct Extra {
         Vec3 x{0, 0, 0};
         std::vector<std::uint32_t> cand;
