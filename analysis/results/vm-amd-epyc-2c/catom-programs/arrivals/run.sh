@@ -1,11 +1,13 @@
 #!/bin/sh
 # The catom programs' share of the step on 1-3 threads and processes, 10^5 and
 # 10^6 catoms (gradient, sculpt, and no program for the memory baseline).
-# Usage (repository root, build ci, nothing else running):
-#   sh analysis/results/vm-amd-epyc-2c/catom-programs/arrivals/run.sh
+# Usage (repository root, build ci, nothing else running; run it three times,
+# with REP=1, 2, 3, for the medians):
+#   REP=1 sh analysis/results/vm-amd-epyc-2c/catom-programs/arrivals/run.sh
 set -e
 S=analysis/results/vm-amd-epyc-2c/catom-programs
-OUT=$S/arrivals
+OUT=$S/arrivals/run${REP:-1}
+mkdir -p $OUT
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive
 scene() {
   case $1 in
