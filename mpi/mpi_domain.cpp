@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "domain/distribution.hpp"
 #include "partition.hpp"
@@ -96,6 +98,19 @@ std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& /*scene*/, con
 }
 
 std::string MpiDomain::why() const { return distributed_why(ranks(), cells_.edge()); }
+
+std::vector<std::vector<char>> MpiCollectives::sparse_to(const std::vector<std::vector<char>>& out, int channel) const {
+    constexpr int kTagSparse = 40;  // 40-43: apart from the domain's tags
+    if (channel < 0 || channel > 3) throw std::logic_error("sparse_to: channel " + std::to_string(channel) + " (0-3)");
+    std::map<int, Bytes> send;
+    for (int r = 0; r < ranks(); ++r) {
+        if (r != rank() && !out[static_cast<std::size_t>(r)].empty()) send.emplace(r, out[static_cast<std::size_t>(r)]);
+    }
+    std::vector<std::vector<char>> in(static_cast<std::size_t>(ranks()));
+    in[static_cast<std::size_t>(rank())] = out[static_cast<std::size_t>(rank())];
+    for (auto& [from, bytes] : comm_.sparse_exchange(send, kTagSparse + channel)) in[static_cast<std::size_t>(from)] = std::move(bytes);
+    return in;
+}
 
 void MpiDomain::setup(World& world, std::vector<WarmImpulse>* warm) {
     world_ = &world;

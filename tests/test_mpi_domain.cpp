@@ -5,7 +5,7 @@
 // keeps neither; the invariant check passes, and fails on every process when
 // one process claims a body it does not own; the solve's correction exchange
 // delivers the other's corrections and stops both processes on a message of
-// the wrong size.
+// the wrong size; the collectives' sparse exchange delivers only what was sent.
 // Trade-off: a custom main brings MPI up around GoogleTest; every process
 // runs every test, and a failure on either fails the run.
 #include <gtest/gtest.h>
@@ -197,6 +197,31 @@ TEST(MpiDomain, CorrectionMessagesOfTheWrongSizeStopBothProcesses) {
                   std::string::npos) << m;
         EXPECT_NE(m.find(" expected"), std::string::npos) << m;
     }
+}
+
+// The sparse exchange of the collectives: only the non-empty buffers travel;
+// each process gets them at their sender's rank, its own buffer at its own,
+// and nothing from a process that sent it nothing; two exchanges on different
+// channels back to back keep their messages apart.
+TEST(MpiCollectives, SparseExchangeDeliversOnlyWhatWasSent) {
+    const mpi::MpiCollectives c(*g_comm);
+    const int me = c.rank(), other = 1 - me;
+    for (int round = 0; round < 3; ++round) {
+        std::vector<std::vector<char>> a(2), b(2);
+        a[static_cast<std::size_t>(me)] = {'s', static_cast<char>('0' + me)};
+        if (me == 0 || round == 1) a[static_cast<std::size_t>(other)] = {'a', static_cast<char>('0' + me), static_cast<char>(round)};
+        b[static_cast<std::size_t>(other)] = {'b', static_cast<char>('0' + me)};
+        const auto ina = c.sparse_to(a, 0);
+        const auto inb = c.sparse_to(b, 1);
+        ASSERT_EQ(ina.size(), 2u);
+        EXPECT_EQ(ina[static_cast<std::size_t>(me)], a[static_cast<std::size_t>(me)]);
+        const std::vector<char> want_a = (other == 0 || round == 1)
+                                              ? std::vector<char>{'a', static_cast<char>('0' + other), static_cast<char>(round)}
+                                              : std::vector<char>{};
+        EXPECT_EQ(ina[static_cast<std::size_t>(other)], want_a) << "round " << round;
+        EXPECT_EQ(inb[static_cast<std::size_t>(other)], (std::vector<char>{'b', static_cast<char>('0' + other)}));
+    }
+    EXPECT_THROW(c.sparse_to(std::vector<std::vector<char>>(2), 4), std::logic_error);
 }
 
 }  // namespace

@@ -53,6 +53,13 @@ public:
     virtual std::vector<std::vector<char>> gather(const std::vector<char>& mine) const;
     // out[r] goes to process r; returns what every process sent here, in rank order.
     virtual std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const;
+    // The same for traffic between few processes: only the non-empty out[r]
+    // travel, and no process learns the others' counts first (a sparse,
+    // non-blocking-barrier exchange: the messages sent plus a barrier's
+    // rounds, against all_to_all's count from every process). `channel`
+    // (0-3) keeps apart exchanges that follow each other with no other
+    // collective between them.
+    virtual std::vector<std::vector<char>> sparse_to(const std::vector<std::vector<char>>& out, int channel) const;
     // Sets HDF5 property lists (hid_t values) so that every process opens and
     // writes one file together: `file_access` gets the MPI-IO driver and
     // `transfer` MPI-IO transfers when distributed; on one process both stay

@@ -14,7 +14,8 @@
 // copy); messages go to the receiver's owner, magnet switches to every
 // process (each keeps the switches of all catoms, so a ghost that arrives
 // anywhere carries the right magnets), errors to every process; each of the
-// two exchanges of a step is one all-to-all. The order of everything a catom
+// two exchanges of a step is a sparse exchange (only to the processes that get
+// something). The order of everything a catom
 // sees is by global id, so every thread and process count gives the same bits.
 // Errors (a handler's exception, a message to a non-neighbour, a sender past
 // its budget) end the run with a ProgramError naming the lowest such catom,

@@ -3,10 +3,12 @@
 // migrates; each step's mail goes to the receivers' owners, magnet switches
 // and failures to every process; checkpoints hold every catom's record in
 // catom order whatever the number of processes.
-// Trade-off: one all-to-all for the migrants and one for the mail a step
-// (each a count exchange and the bytes), even when nothing moves or is sent,
-// instead of asking first whether anything is; switches go to every process,
-// which costs nothing while programs switch rarely and keeps every ghost's
+// Trade-off: one sparse exchange for the migrants and one for the mail a
+// step (messages only to the processes that get something, then a
+// non-blocking barrier: no count from every process, so it scales with the
+// neighbours, not the machine), kept apart from the ghost exchange, which
+// runs before the handlers have sent anything; switches go to every process,
+// which costs little while programs switch rarely and keeps every ghost's
 // magnets right wherever it appears.
 #include <algorithm>
 #include <cstring>
@@ -142,7 +144,7 @@ void ProgramPass::transfer(World& world) {
         post(out, me, local_k_[k] != IdMap::kNone ? world.slot(local_k_[k]).owner : -1, record);
     }
     std::vector<std::uint32_t> nbrs;
-    for (const std::vector<char>& in : coll_->all_to_all(out)) {
+    for (const std::vector<char>& in : coll_->sparse_to(out, 0)) {
         for (std::size_t at = 0; at < in.size();) {
             Bytes b(in, at);
             const auto k = b.get<std::uint32_t>();
@@ -198,7 +200,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed
     }
     if (!distributed()) return;
     std::vector<std::uint32_t> mailed;
-    for (const std::vector<char>& in : coll_->all_to_all(out)) {
+    for (const std::vector<char>& in : coll_->sparse_to(out, 1)) {
         for (Bytes b(in, 0); !b.done();) {
             const auto what = b.get<std::uint8_t>();
             if (what == kMessage) {
