@@ -53,6 +53,7 @@ std::int64_t hash_key(std::int64_t x, std::int64_t y, std::int64_t z) {
 void ProgramPass::locate(const World& world) {
     if (world.generation() == located_) return;
     located_ = world.generation();
+    relocated_ = true;
     for_ranges(exec_.loops(), present_.size(), 4096, [&](std::size_t j0, std::size_t j1) {
         for (std::size_t j = j0; j < j1; ++j) local_k_[present_[j]] = IdMap::kNone, owned_now_[present_[j]] = 0;
     });

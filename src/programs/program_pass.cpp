@@ -242,16 +242,33 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     reach_ = scene.program_reach();
     edge_ = scene.program_range();  // the scene's radii: the cell edge is fixed for the run
     skin_ = skin_fraction() * edge_;
-    catoms_.resize(ids_.size());
+    catoms_.resize(ids_.size());  // records made for the catoms this process owns (hold_records)
     local_k_.assign(ids_.size(), IdMap::kNone);
     owned_now_.assign(ids_.size(), 0);
     current_.assign(ids_.size(), 1);
     dirty_.assign(ids_.size(), 1);
     digest_.assign(ids_.size(), 0);
-    for (std::size_t k = 0; k < ids_.size(); ++k) {
-        catoms_[k].program = spec_->make();
-        if (!catoms_[k].program) throw ProgramError("program " + spec_->name + " made no program object");
-        catoms_[k].magnets = scene.body_magnets(ids_[k]);
+    fresh_record(0);  // a program that makes no object fails here, before the run
+}
+
+// A record as catom k starts: a new program object, the scene's magnets.
+std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::size_t k) const {
+    auto c = std::make_unique<Catom>();
+    c->program = spec_->make();
+    if (!c->program) throw ProgramError("program " + spec_->name + " made no program object");
+    c->magnets = ids_.empty() || scene_.body_magnets(ids_[k]);
+    return c;
+}
+
+// Every owned catom has a record: one that never ran anywhere starts afresh
+// here; any other must have come with its state.
+void ProgramPass::hold_records() {
+    for (std::uint32_t k : owned_) {
+        if (catoms_[k]) continue;
+        if (!current_[k]) {
+            throw std::logic_error("catom " + std::to_string(ids_[k]) + " came to this process without its program state");
+        }
+        catoms_[k] = fresh_record(k);
     }
 }
 
@@ -269,7 +286,7 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
         std::vector<std::uint32_t> listed;
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
             const std::uint32_t k = which[o];
-            Catom& c = catoms_[k];
+            Catom& c = *catoms_[k];
             NeighbourRange range{nullptr, nullptr, ids_, local_k_, world};
             if (diff) {
                 range.begin = now_.ids.data() + now_.at[k], range.end = now_.ids.data() + now_.at[k + 1];
@@ -316,7 +333,7 @@ std::vector<std::uint32_t> ProgramPass::due(double time) const {
     std::vector<std::vector<std::uint32_t>> part(chunks);
     exec_.loops().run(chunks, n, [&](std::size_t ch) {
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
-            const Catom& c = catoms_[owned_[o]];
+            const Catom& c = *catoms_[owned_[o]];
             if (!c.started || !c.inbox.empty() || (c.timer_at >= 0 && time >= c.timer_at - 1e-12)) part[ch].push_back(owned_[o]);
         }
     });
@@ -331,12 +348,12 @@ std::vector<std::uint32_t> ProgramPass::due(double time) const {
 void ProgramPass::finish_step(World& world) {
     // Only catoms that ran have mail to clear (mail makes a catom run), an
     // outbox, events, a failure or switched magnets.
-    for (std::uint32_t k : ran_) catoms_[k].inbox.clear();
-    std::vector<std::uint32_t> failed;
+    for (std::uint32_t k : ran_) catoms_[k]->inbox.clear();
+    std::vector<std::pair<std::uint32_t, std::string>> failed;  // (catom, what)
     std::int64_t counted[2] = {0, 0};  // messages, events
     for (std::uint32_t k : ran_) {
-        Catom& c = catoms_[k];
-        if (!c.error.empty()) failed.push_back(k);
+        Catom& c = *catoms_[k];
+        if (!c.error.empty()) failed.emplace_back(k, c.error);
         counted[0] += static_cast<std::int64_t>(c.outbox.size());
         counted[1] += c.events;
         c.events = 0;
@@ -346,8 +363,8 @@ void ProgramPass::finish_step(World& world) {
         exchange_mail(world, failed);
     }
     if (!failed.empty()) {
-        const std::uint32_t k = *std::min_element(failed.begin(), failed.end());
-        throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + catoms_[k].error);
+        const auto first = std::min_element(failed.begin(), failed.end());
+        throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + first->second);
     }
     SubstageTimer t(counts_.parts, "digest");
     if (distributed()) coll_->sum(counted, 2);
@@ -374,10 +391,10 @@ void ProgramPass::refresh_world(World& world, bool all) {
             const std::uint32_t k = owned_[o];
             if (all || dirty_[k]) {
                 for (std::size_t v = 0; v < spec_->values.size(); ++v) {  // each catom its own local slot
-                    world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k].values[v]);
+                    world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k]->values[v]);
                 }
             }
-            if (dirty_[k]) digest_[k] = catom_digest(ids_[k], catoms_[k], bytes), dirty_[k] = 0;
+            if (dirty_[k]) digest_[k] = catom_digest(ids_[k], *catoms_[k], bytes), dirty_[k] = 0;
             sum += digest_[k];
         }
         sums[c] = sum;
@@ -397,6 +414,8 @@ void ProgramPass::apply(World& world, double time) {
         SubstageTimer t(counts_.parts, "transfer");
         transfer(world);
     }
+    if (relocated_ && !distributed()) hold_records();  // distributed: in transfer(), every step
+    relocated_ = false;
     // With neighbour events, every owned catom's neighbours; without, the
     // candidates made ready for the catoms that run (a handler that asks gets
     // its catom's neighbours then).

@@ -22,10 +22,11 @@
 // its event and the message, on every process.
 // Its whole state goes into checkpoints (save_state / load_state), in one
 // format for any number of processes.
-// Trade-off: every process keeps a slot (and a program object) for every
-// catom of the scene, current only for those it owns: simple lookups and a
-// checkpoint of any split, against memory a process that grows with the
-// scene (about 100 bytes a catom); neighbours tested each step among
+// Trade-off: a catom's record (its program object, mail, values) lives only
+// on the process that owns it, made when it first owns it and dropped when
+// it sends it on; every process keeps a few index arrays over all catoms
+// (about 40 bytes a catom: simple lookups and a checkpoint of any split,
+// against memory that grows with the scene); neighbours tested each step among
 // candidates listed with a skin (listed again from a cell list, O(N), when a
 // catom moved half the skin), kept as catom indices, and handed to a handler
 // with their directions only when it asks; only catoms with an event run.
@@ -98,13 +99,16 @@ private:
                            std::vector<std::uint32_t>& gained) const;
     void run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time);
     void finish_step(World& world);
-    void exchange_mail(World& world, std::vector<std::uint32_t>& failed);
+    void exchange_mail(World& world, std::vector<std::pair<std::uint32_t, std::string>>& failed);
+    std::unique_ptr<Catom> fresh_record(std::size_t k) const;
+    void hold_records();
     void refresh_world(World& world, bool all);
     // One catom's record (values, flags, timer, inbox, program bytes, last
     // neighbours): appended to `out`, or read from `in` at `at` (returns the
     // offset after it; `nbrs` gets the neighbours).
     void put_catom(std::size_t k, std::vector<char>& out) const;
-    std::size_t get_catom(std::size_t k, const std::vector<char>& in, std::size_t at, std::vector<std::uint32_t>& nbrs);
+    std::size_t get_catom(Catom& c, std::size_t k, const std::vector<char>& in, std::size_t at,
+                          std::vector<std::uint32_t>& nbrs) const;
     bool distributed() const { return coll_->distributed(); }
 
     const Scene& scene_;
@@ -115,7 +119,11 @@ private:
     double reach_, edge_ = 0, skin_ = 0;
     std::vector<std::uint32_t> ids_;  // catom gids, ascending
     std::vector<std::uint32_t> kof_;  // gid -> catom index (kNone: not a catom)
-    std::vector<Catom> catoms_;
+    // Each catom's record, held only while this process owns the catom
+    // (and, after a restart, until the first step has moved what moves).
+    std::vector<std::unique_ptr<Catom>> catoms_;
+    bool relocated_ = false;  // locate() found the world changed: owned catoms may lack records
+    bool sweep_ = false;      // records of catoms not owned here to drop (after a restart)
     // This step: the catoms held here (ascending catom index) and their local
     // indices, the owned ones, and each catom's local index (kNone: not held).
     std::vector<std::uint32_t> present_, plocal_, owned_, local_k_;

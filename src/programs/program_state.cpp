@@ -85,7 +85,8 @@ void post(std::vector<std::vector<char>>& out, int me, int to, const std::vector
 
 void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
     Bytes b(out);
-    const Catom& c = catoms_[k];
+    const std::unique_ptr<Catom> fresh = catoms_[k] ? nullptr : fresh_record(k);  // one no process holds
+    const Catom& c = catoms_[k] ? *catoms_[k] : *fresh;
     b.put(c.values);
     b.put(static_cast<std::uint8_t>(c.magnets));
     b.put(static_cast<std::uint8_t>(c.started));
@@ -104,10 +105,9 @@ void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
     b.put_bytes(now_.ids.data() + n0, sizeof(std::uint32_t) * (n1 - n0));
 }
 
-std::size_t ProgramPass::get_catom(std::size_t k, const std::vector<char>& in, std::size_t at,
-                                   std::vector<std::uint32_t>& nbrs) {
+std::size_t ProgramPass::get_catom(Catom& c, std::size_t k, const std::vector<char>& in, std::size_t at,
+                                   std::vector<std::uint32_t>& nbrs) const {
     Bytes b(in, at);
-    Catom& c = catoms_[k];
     c.values = b.get<std::array<double, kProgramValues>>();
     c.magnets = b.get<std::uint8_t>() != 0;
     c.started = b.get<std::uint8_t>() != 0;
@@ -143,22 +143,34 @@ void ProgramPass::transfer(World& world) {
         put_catom(k, record);
         post(out, me, local_k_[k] != IdMap::kNone ? world.slot(local_k_[k]).owner : -1, record);
     }
+    for (std::uint32_t k : last_owned_) {
+        if (!owned_now_[k]) catoms_[k].reset();  // sent: its record lives with its new owner
+    }
     std::vector<std::uint32_t> nbrs;
+    std::unique_ptr<Catom> scratch;
     for (const std::vector<char>& in : coll_->sparse_to(out, 0)) {
         for (std::size_t at = 0; at < in.size();) {
             Bytes b(in, at);
             const auto k = b.get<std::uint32_t>();
-            at = get_catom(k, in, b.at(), nbrs);  // one not owned here (sent to every process) only refreshes a stale copy
-            if (owned_now_[k]) arrived_[k] = nbrs;
+            if (!owned_now_[k]) {  // sent to every process, owned elsewhere: read past it
+                if (!scratch) scratch = fresh_record(k);
+                at = get_catom(*scratch, k, in, b.at(), nbrs);
+                continue;
+            }
+            if (!catoms_[k]) catoms_[k] = fresh_record(k);
+            at = get_catom(*catoms_[k], k, in, b.at(), nbrs);
+            arrived_[k] = nbrs;
             dirty_[k] = 1;
         }
     }
-    for (std::uint32_t k : owned_) {
-        if (!current_[k] && !arrived_.count(k)) {
-            throw std::logic_error("catom " + std::to_string(ids_[k]) + " came to this process without its program state");
+    if (sweep_) {  // after a restart every process held every record: keep the owned ones
+        for (std::size_t k = 0; k < catoms_.size(); ++k) {
+            if (!owned_now_[k]) catoms_[k].reset();
         }
+        sweep_ = false;
     }
-    std::fill(current_.begin(), current_.end(), 0);  // the others' copies here go stale from now on
+    hold_records();
+    std::fill(current_.begin(), current_.end(), 0);  // the others' states are elsewhere from now on
     for (std::uint32_t k : owned_) current_[k] = 1;
 }
 
@@ -166,16 +178,16 @@ void ProgramPass::transfer(World& world) {
 // inboxes, the others to their owners; magnet switches into the world and to
 // every process; failures to every process (`failed` gets every process's).
 // Each inbox ends in sender order (then sending order).
-void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed) {
+void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_t, std::string>>& failed) {
     const int me = coll_->rank();
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<char> item;
     for (std::uint32_t k : ran_) {  // only they may have sent or switched
-        Catom& c = catoms_[k];
+        Catom& c = *catoms_[k];
         for (const auto& [to, m] : c.outbox) {
             const std::uint32_t kt = kof_[to];
             if (owned_now_[kt]) {
-                catoms_[kt].inbox.push_back(m);
+                catoms_[kt]->inbox.push_back(m);
                 dirty_[kt] = 1;
                 continue;
             }
@@ -191,11 +203,11 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed
             post(out, me, -1, item);
         }
     }
-    for (std::uint32_t k : failed) {
+    for (const auto& [k, what] : failed) {
         item.clear();
         Bytes b(item);
         b.put(kFailure), b.put(k);
-        b.put_bytes(catoms_[k].error.data(), catoms_[k].error.size());
+        b.put_bytes(what.data(), what.size());
         post(out, me, -1, item);
     }
     if (!distributed()) return;
@@ -209,7 +221,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed
                 m.from = b.get<std::uint32_t>();
                 m.data = b.get<std::array<std::int64_t, 4>>();
                 if (!owned_now_[kt]) throw std::logic_error("a message for catom " + std::to_string(ids_[kt]) + ", not owned here");
-                catoms_[kt].inbox.push_back(m);
+                catoms_[kt]->inbox.push_back(m);
                 dirty_[kt] = 1;
                 mailed.push_back(kt);
             } else if (what == kSwitch) {
@@ -217,13 +229,12 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::uint32_t>& failed
                 world.switch_poles(g, b.get<std::uint8_t>());
             } else {
                 const auto k = b.get<std::uint32_t>();
-                catoms_[k].error = b.get_text();
-                failed.push_back(k);
+                failed.emplace_back(k, b.get_text());
             }
         }
     }
     for (std::uint32_t k : mailed) {
-        std::stable_sort(catoms_[k].inbox.begin(), catoms_[k].inbox.end(),
+        std::stable_sort(catoms_[k]->inbox.begin(), catoms_[k]->inbox.end(),
                          [](const CatomMessage& a, const CatomMessage& b) { return a.from < b.from; });
     }
 }
@@ -289,16 +300,18 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     std::size_t at = b.at();
     std::vector<std::uint32_t> nbrs;
     for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        at = get_catom(k, state, at, nbrs);
+        if (!catoms_[k]) catoms_[k] = fresh_record(k);
+        at = get_catom(*catoms_[k], k, state, at, nbrs);
         now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
         now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
     }
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
     std::fill(current_.begin(), current_.end(), 1);  // every process holds every catom's state now
     std::fill(dirty_.begin(), dirty_.end(), 1);
+    sweep_ = distributed();
     last_owned_.clear();
     for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        world.switch_poles(ids_[k], catoms_[k].magnets ? catoms_[k].poles_off : World::kAllPolesOff);
+        world.switch_poles(ids_[k], catoms_[k]->magnets ? catoms_[k]->poles_off : World::kAllPolesOff);
     }
     located_ = ~0ULL;
     locate(world);
@@ -307,7 +320,9 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
 
 std::vector<double> ProgramPass::values_of(int v) const {
     std::vector<double> out(catoms_.size());
-    for (std::size_t k = 0; k < catoms_.size(); ++k) out[k] = catoms_[k].values.at(static_cast<std::size_t>(v));
+    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+        out[k] = catoms_[k] ? catoms_[k]->values.at(static_cast<std::size_t>(v)) : 0.0;  // not held here: the owner's below
+    }
     if (!distributed()) return out;
     std::vector<char> mine;
     for (std::uint32_t k : last_owned_) Bytes(mine).put(k), Bytes(mine).put(out[k]);
