@@ -262,13 +262,36 @@ std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::size_t k) con
 
 // Every owned catom has a record: one that never ran anywhere starts afresh
 // here; any other must have come with its state.
+void ProgramPass::prepare(const World& world) {
+    locate(world);
+    hold_records();
+    sweep_ = distributed();  // those that move before the first step leave their records here: dropped then
+}
+
+// The records are made on the threads (a program's constructor, like its
+// handlers, touches only its own object); the first failure is rethrown.
 void ProgramPass::hold_records() {
+    std::vector<std::uint32_t> make;
     for (std::uint32_t k : owned_) {
         if (catoms_[k]) continue;
         if (!current_[k]) {
             throw std::logic_error("catom " + std::to_string(ids_[k]) + " came to this process without its program state");
         }
-        catoms_[k] = fresh_record(k);
+        make.push_back(k);
+    }
+    const std::size_t n = make.size(), chunks = chunk_count(exec_.loops(), n, 1024);
+    std::vector<std::exception_ptr> failed(chunks);
+    exec_.loops().run(chunks, n, [&](std::size_t c) {
+        try {
+            for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
+                catoms_[make[i]] = fresh_record(make[i]);
+            }
+        } catch (...) {
+            failed[c] = std::current_exception();
+        }
+    });
+    for (const std::exception_ptr& e : failed) {
+        if (e) std::rethrow_exception(e);
     }
 }
 

@@ -64,6 +64,9 @@ public:
     // The run's processes (default: this one alone); kept by reference.
     void set_collectives(const Collectives& c) { coll_ = &c; }
     void apply(World& world, double time) override;
+    // Before the first step, once the world holds its bodies: the records
+    // of the catoms owned here (else the first step makes them).
+    void prepare(const World& world);
     const ProgramCounts& counts() const { return counts_; }
     // Everything the next step depends on (each catom's values, magnets,
     // timer, pending messages, program bytes and last neighbours; the step

@@ -57,6 +57,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 1;
 #endif
     timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
+    if (program_) program_->prepare(*world_);  // the records of the catoms owned here, made as the bodies were
     const double collide_before = stages_[static_cast<int>(Stage::Collide)].seconds;
     timed(Stage::Collide, [this] { run_collide(); });
     setup_collide_s_ = stages_[static_cast<int>(Stage::Collide)].seconds - collide_before;
