@@ -40,10 +40,19 @@ bool within(const Vec3& a, const Vec3& b, double bound) {
     return d > 0 && d <= bound;
 }
 
-// A cell's key in the arrivals' hash grid (cells from -2^20 to 2^20 a side).
+// The cell index of coordinate v (cells of edge 1 from 0): floor, kept
+// within +-2^40 (a NaN gives 0) so that the conversion is always defined.
+std::int64_t cell_index(double v) {
+    constexpr double kMost = 1099511627776.0;  // 2^40
+    return static_cast<std::int64_t>(std::floor(std::clamp(v == v ? v : 0.0, -kMost, kMost)));
+}
+
+// A cell's key in the arrivals' hash grid: 21 bits of each coordinate
+// (cells 2^21 apart share a key, which only adds candidates to test).
 std::int64_t hash_key(std::int64_t x, std::int64_t y, std::int64_t z) {
-    constexpr std::int64_t kOff = std::int64_t{1} << 20;
-    return ((x + kOff) << 42) | ((y + kOff) << 21) | (z + kOff);
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const auto bits = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & kMask; };
+    return static_cast<std::int64_t>((bits(x) << 42) | (bits(y) << 21) | bits(z));
 }
 
 }  // namespace
@@ -184,7 +193,7 @@ void ProgramPass::add_arrivals() {
         found.clear();
         listed_near(x, ra, found);
         std::int64_t c[3];
-        for (int d = 0; d < 3; ++d) c[d] = static_cast<std::int64_t>(std::floor(x[d] / edge));
+        for (int d = 0; d < 3; ++d) c[d] = cell_index(x[d] / edge);
         for (int d = 0; d < 27; ++d) {
             const auto cell = arrived_cells_.find(hash_key(c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1));
             if (cell == arrived_cells_.end()) continue;
@@ -208,25 +217,26 @@ void ProgramPass::add_arrivals() {
 void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const {
     const double edge = edge_ + skin_;
     std::int64_t c[3];
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>(std::floor((x[a] - low_[a]) / edge));
+    for (int a = 0; a < 3; ++a) c[a] = cell_index((x[a] - low_[a]) / edge);
     const std::int64_t z0 = std::max<std::int64_t>(c[2] - 1, 0), z1 = std::min<std::int64_t>(c[2] + 1, dims_[2] - 1);
     if (z0 > z1) return;
     for (int d = 0; d < 9; ++d) {
         const std::int64_t cx = c[0] + d % 3 - 1, cy = c[1] + d / 3 - 1;
         if (cx < 0 || cy < 0 || cx >= dims_[0] || cy >= dims_[1]) continue;
-        std::size_t s0, s1;
-        if (!start_.empty()) {
+        const auto test = [&](std::size_t s0, std::size_t s1) {
+            for (std::size_t l = s0; l < s1; ++l) {
+                const Listed& e = listed_[l];
+                if (within(x, e.x, ra + static_cast<double>(e.r))) out.push_back(e.k);
+            }
+        };
+        if (!start_.empty()) {  // the three cells along z are consecutive
             const auto cell = [&](std::int64_t cz) { return static_cast<std::size_t>((cx * dims_[1] + cy) * dims_[2] + cz); };
-            s0 = start_[cell(z0)], s1 = start_[cell(z1) + 1];
-        } else {
-            const auto at = [&](std::int64_t cz) {
-                return static_cast<std::size_t>(std::lower_bound(keys_.begin(), keys_.end(), (cx << 42) | (cy << 21) | cz) - keys_.begin());
-            };
-            s0 = at(z0), s1 = at(z1 + 1);
+            test(start_[cell(z0)], start_[cell(z1) + 1]);
+            continue;
         }
-        for (std::size_t l = s0; l < s1; ++l) {
-            const Listed& e = listed_[l];
-            if (within(x, e.x, ra + static_cast<double>(e.r))) out.push_back(e.k);
+        for (std::int64_t cz = z0; cz <= z1; ++cz) {
+            const auto run = std::equal_range(keys_.begin(), keys_.end(), hash_key(cx, cy, cz));
+            test(static_cast<std::size_t>(run.first - keys_.begin()), static_cast<std::size_t>(run.second - keys_.begin()));
         }
     }
 }
@@ -279,10 +289,10 @@ void ProgramPass::grid_listed() {
     }
     double cells = 1;
     for (int a = 0; a < 3; ++a) {
-        dims_[a] = n ? static_cast<std::int64_t>((high[a] - low_[a]) / edge) + 1 : 1;
+        dims_[a] = n ? cell_index((high[a] - low_[a]) / edge) + 1 : 1;
         cells *= static_cast<double>(dims_[a]);
     }
-    const auto cell = [&](const Vec3& p, int a) { return static_cast<std::int64_t>((p[a] - low_[a]) / edge); };
+    const auto cell = [&](const Vec3& p, int a) { return cell_index((p[a] - low_[a]) / edge); };
     const auto entry = [&](std::size_t j) {
         const double r = catom_radius(scene_, ids_[present_[j]]);
         float rf = static_cast<float>(r);
@@ -307,7 +317,7 @@ void ProgramPass::grid_listed() {
         std::vector<std::pair<std::int64_t, std::uint32_t>> sorted(n);
         for (std::size_t j = 0; j < n; ++j) {
             const Vec3& x = xl_[plocal_[j]];
-            sorted[j] = {(cell(x, 0) << 42) | (cell(x, 1) << 21) | cell(x, 2), static_cast<std::uint32_t>(j)};
+            sorted[j] = {hash_key(cell(x, 0), cell(x, 1), cell(x, 2)), static_cast<std::uint32_t>(j)};
         }
         std::sort(sorted.begin(), sorted.end());
         keys_.resize(n);
