@@ -262,6 +262,14 @@ std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::size_t k) con
 
 // Every owned catom has a record: one that never ran anywhere starts afresh
 // here; any other must have come with its state.
+ProgramCounts ProgramPass::totals() const {
+    ProgramCounts t = counts_;
+    std::int64_t v[2] = {static_cast<std::int64_t>(t.messages), static_cast<std::int64_t>(t.events)};
+    if (distributed()) coll_->sum(v, 2);
+    t.messages = static_cast<std::uint64_t>(v[0]), t.events = static_cast<std::uint64_t>(v[1]);
+    return t;
+}
+
 void ProgramPass::prepare(const World& world) {
     locate(world);
     hold_records();
@@ -390,8 +398,7 @@ void ProgramPass::finish_step(World& world) {
         throw ProgramError("program " + spec_->name + ", step " + std::to_string(step_) + ": " + first->second);
     }
     SubstageTimer t(counts_.parts, "digest");
-    if (distributed()) coll_->sum(counted, 2);
-    counts_.messages += static_cast<std::uint64_t>(counted[0]);
+    counts_.messages += static_cast<std::uint64_t>(counted[0]);  // this process's: summed when reported
     counts_.events += static_cast<std::uint64_t>(counted[1]);
     refresh_world(world, step_ == 0);
     last_owned_ = owned_;

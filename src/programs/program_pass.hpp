@@ -46,7 +46,7 @@
 namespace parode {
 
 struct ProgramCounts {
-    std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: every process's
+    std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: this process's (totals(): all)
     double seconds = 0;                                  // this process's
     std::uint64_t lists = 0;                             // this process's listings of candidate neighbours
     // This process's seconds in each part of the pass: locate, transfer (the
@@ -68,6 +68,9 @@ public:
     // of the catoms owned here (else the first step makes them).
     void prepare(const World& world);
     const ProgramCounts& counts() const { return counts_; }
+    // The counts with every process's messages and events (collective when
+    // distributed: summed only when asked, not every step).
+    ProgramCounts totals() const;
     // Everything the next step depends on (each catom's values, magnets,
     // timer, pending messages, program bytes and last neighbours; the step
     // and counts), for checkpoints: the same bytes on every process

@@ -248,8 +248,9 @@ std::vector<char> ProgramPass::save_state() const {
     b.put(static_cast<std::uint64_t>(ids_.size()));
     b.put(static_cast<std::int64_t>(step_));
     b.put(counts_.steps);
-    b.put(counts_.messages);
-    b.put(counts_.events);
+    const ProgramCounts counted = totals();
+    b.put(counted.messages);
+    b.put(counted.events);
     if (!distributed()) {
         for (std::size_t k = 0; k < catoms_.size(); ++k) put_catom(k, out);
         return out;
@@ -295,6 +296,7 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     counts_.steps = b.get<std::uint64_t>();
     counts_.messages = b.get<std::uint64_t>();
     counts_.events = b.get<std::uint64_t>();
+    if (coll_->rank() != 0) counts_.messages = counts_.events = 0;  // the totals counted once, on the first process
     now_.at.assign(ids_.size() + 1, 0);
     now_.ids.clear();
     std::size_t at = b.at();

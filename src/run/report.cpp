@@ -106,7 +106,7 @@ void colour_json(const Collectives& domain, const ColourTimes& t, nlohmann::json
 // and (up to kListedCatoms catoms) every catom's values by name.
 nlohmann::json program_json(const Collectives& domain, const ProgramPass& pass) {
     constexpr std::size_t kListedCatoms = 100000;
-    const ProgramCounts& c = pass.counts();
+    const ProgramCounts c = pass.totals();  // collective when distributed
     const double steps = c.steps ? static_cast<double>(c.steps) : 1.0;
     nlohmann::json out = {{"name", pass.spec().name},         {"catoms", pass.catoms().size()},
                           {"steps", c.steps},                 {"messages", c.messages},
