@@ -56,6 +56,7 @@ struct RunArgs {
     std::string solver;
     std::string report;
     std::vector<std::string> sets;
+    std::string program;  // empty: the scene's [program], if any
     std::string snapshot;
     long snapshot_every = 1;
     std::string trajectory;
@@ -108,7 +109,9 @@ std::string solver_of(const RunArgs& a, const Scene& sc) {
 }
 
 Scene load_run_scene(const RunArgs& a) {
-    return load_scene(a.scene, a.sets, memory_guard([&a](const Scene& sc) {
+    std::vector<std::string> sets = a.sets;  // --program first: an explicit --set program.name wins
+    if (!a.program.empty()) sets.insert(sets.begin(), "program.name=" + a.program);
+    return load_scene(a.scene, sets, memory_guard([&a](const Scene& sc) {
         RunShape shape;
         shape.collide = collide_of(a, sc);
         shape.steps = step_count(a, sc);
@@ -216,6 +219,9 @@ void add_run(CLI::App& app, RunArgs& a, std::function<int()>& action) {
     run->add_option("--report", a.report, "Write the JSON run report to this file");
     run->add_option("--set", a.sets, "Override a scene value, key=value (e.g. catoms.count=8000); repeatable")
         ->allow_extra_args(false);
+    run->add_option("--program", a.program,
+                    "Catom program for every catom: a built-in (gradient, sculpt, wave) or a program library FILE.so "
+                    "(as --set program.name=...; parameters from the scene's [program.params] or --set)");
     CLI::Option* snapshot = run->add_option("--snapshot", a.snapshot,
                                             "Write every body's state at step 0 and every K steps: FILE.h5 is H5MD with "
                                             "FILE.xdmf for ParaView, any other name CSV (position, quaternion)");

@@ -265,6 +265,20 @@ class Poles(unittest.TestCase):
             self.assertNotEqual(on["state_hash"], off["state_hash"])
 
 
+class ProgramOption(unittest.TestCase):
+    def test_program_option_runs_as_the_table(self):
+        """`--program wave` (with its params from --set) runs what the
+        [program] table does: the same hash, values and message count."""
+        with tempfile.TemporaryDirectory() as d:
+            table = run(scene_with('[program]\nname = "wave"\n[program.params]\nseed = 0', d), d, "--steps", "60")[0]
+            option = run(PRISM, d, "--steps", "60", "--program", "wave", "--set", "program.params.seed=0")[0]
+            self.assertEqual(option["program"]["name"], "wave")
+            self.assertEqual(option["state_hash"], table["state_hash"])
+            self.assertEqual(option["program"]["values"], table["program"]["values"])
+            self.assertEqual(option["program"]["messages"], table["program"]["messages"])
+            self.assertGreater(option["program"]["messages"], 0)
+
+
 class CandidateNeighbours(unittest.TestCase):
     def test_skin_gives_the_full_search(self):
         """Gradient on the collapsing tennis prism (catoms move fast, messages
