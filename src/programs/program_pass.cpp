@@ -245,7 +245,6 @@ ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
     catoms_.resize(ids_.size());  // records made for the catoms this process owns (hold_records)
     local_k_.assign(ids_.size(), IdMap::kNone);
     owned_now_.assign(ids_.size(), 0);
-    current_.assign(ids_.size(), 1);
     dirty_.assign(ids_.size(), 1);
     digest_.assign(ids_.size(), 0);
     fresh_record(0);  // a program that makes no object fails here, before the run
@@ -260,8 +259,6 @@ std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::size_t k) con
     return c;
 }
 
-// Every owned catom has a record: one that never ran anywhere starts afresh
-// here; any other must have come with its state.
 ProgramCounts ProgramPass::totals() const {
     ProgramCounts t = counts_;
     std::int64_t v[2] = {static_cast<std::int64_t>(t.messages), static_cast<std::int64_t>(t.events)};
@@ -276,13 +273,15 @@ void ProgramPass::prepare(const World& world) {
     sweep_ = distributed();  // those that move before the first step leave their records here: dropped then
 }
 
-// The records are made on the threads (a program's constructor, like its
-// handlers, touches only its own object); the first failure is rethrown.
+// Every owned catom has a record: one that never ran anywhere starts afresh
+// here; any other must have come with its state. The records are made on the
+// threads (a program's constructor, like its handlers, touches only its own
+// object); the first failure is rethrown.
 void ProgramPass::hold_records() {
     std::vector<std::uint32_t> make;
     for (std::uint32_t k : owned_) {
         if (catoms_[k]) continue;
-        if (!current_[k]) {
+        if (!unstarted_) {
             throw std::logic_error("catom " + std::to_string(ids_[k]) + " came to this process without its program state");
         }
         make.push_back(k);

@@ -67,7 +67,6 @@ public:
     // Before the first step, once the world holds its bodies: the records
     // of the catoms owned here (else the first step makes them).
     void prepare(const World& world);
-    const ProgramCounts& counts() const { return counts_; }
     // The counts with every process's messages and events (collective when
     // distributed: summed only when asked, not every step).
     ProgramCounts totals() const;
@@ -128,6 +127,9 @@ private:
     // Each catom's record, held only while this process owns the catom
     // (and, after a restart, until the first step has moved what moves).
     std::vector<std::unique_ptr<Catom>> catoms_;
+    // No catom has run anywhere since the start (or the restart): an owned
+    // catom without a record here may start afresh; later it must arrive.
+    bool unstarted_ = true;
     bool relocated_ = false;  // locate() found the world changed: owned catoms may lack records
     bool sweep_ = false;      // records of catoms not owned here to drop (after a restart)
     // This step: the catoms held here (ascending catom index) and their local
@@ -135,7 +137,6 @@ private:
     std::vector<std::uint32_t> present_, plocal_, owned_, local_k_;
     std::vector<std::uint32_t> ran_;  // the owned catoms whose handlers ran this step (ascending)
     std::vector<std::uint8_t> owned_now_;  // by catom index
-    std::vector<std::uint8_t> current_;    // by catom index: its state here is current (owned, or none ran yet)
     std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step
     std::vector<std::uint8_t> dirty_;        // by catom index: its record changed since its digest
     std::vector<std::uint64_t> digest_;      // by catom index: the digest of its record

@@ -170,8 +170,7 @@ void ProgramPass::transfer(World& world) {
         sweep_ = false;
     }
     hold_records();
-    std::fill(current_.begin(), current_.end(), 0);  // the others' states are elsewhere from now on
-    for (std::uint32_t k : owned_) current_[k] = 1;
+    unstarted_ = false;  // from now on a catom's state is only where it is owned
 }
 
 // The step's mail: messages to catoms owned here go straight into their
@@ -308,7 +307,7 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
         now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
     }
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
-    std::fill(current_.begin(), current_.end(), 1);  // every process holds every catom's state now
+    unstarted_ = true;  // every process holds every catom's state now
     std::fill(dirty_.begin(), dirty_.end(), 1);
     sweep_ = distributed();
     last_owned_.clear();
