@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 namespace parode {
@@ -46,6 +47,11 @@ struct SphereRow {
     double mu;            // friction rows clamped to +-mu lambda[0] (to 0 when mu = 0)
 };
 static_assert(sizeof(SphereRow) == 104, "a sphere row is 13 doubles");
+// Four lanes read a row's 12 doubles as three blocks of four (n, r1 | r2, rhs |
+// lambda, mu) and write lambda and mu back as one block.
+static_assert(offsetof(SphereRow, n) == 8 && offsetof(SphereRow, r1) == 32 && offsetof(SphereRow, r2) == 40 &&
+                  offsetof(SphereRow, rhs) == 48 && offsetof(SphereRow, lambda) == 72 && offsetof(SphereRow, mu) == 96,
+              "a sphere row's doubles lie in the order the four-lane loads read them");
 
 // What every sphere row of a step shares: the SOR factor and CFM / dt (the
 // solver keeps a contact as a SphereRow only where all its rows' CFM is the
@@ -188,6 +194,42 @@ PARODE_LANE_INLINE V gather_lanes(Get get) {
 }
 template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
+// Four blocks of four doubles transposed in registers (out[i][l] = in[l][i]):
+// two unpacks and two lane swaps a pair instead of sixteen single loads or
+// stores. Only for V = Quad.
+template <class V>
+PARODE_LANE_INLINE void transpose4(const V* in, V* out) {
+    const V t0 = __builtin_shufflevector(in[0], in[1], 0, 4, 2, 6), t1 = __builtin_shufflevector(in[0], in[1], 1, 5, 3, 7);
+    const V t2 = __builtin_shufflevector(in[2], in[3], 0, 4, 2, 6), t3 = __builtin_shufflevector(in[2], in[3], 1, 5, 3, 7);
+    out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+    out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+    out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+    out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+// Block `at` (4 doubles from the byte offset) of each of four records, transposed.
+// (Read through a type of the doubles' own alignment, as one 32-byte load each:
+// a memcpy was expanded as two 16-byte halves through the stack.)
+template <class V>
+struct UnalignedOf;
+template <>
+struct UnalignedOf<Quad> {
+    using type = double __attribute__((vector_size(32), aligned(8), may_alias));
+};
+template <class V>
+using Unaligned = typename UnalignedOf<V>::type;
+template <class V, class T>
+PARODE_LANE_INLINE V block_at(const T* rec, std::size_t at) {
+    return *reinterpret_cast<const Unaligned<V>*>(reinterpret_cast<const char*>(rec) + at);
+}
+template <class V, class T>
+PARODE_LANE_INLINE void load_blocks(const T* const* rec, std::size_t at, V* out) {
+    const V in[4] = {block_at<V>(rec[0], at), block_at<V>(rec[1], at), block_at<V>(rec[2], at), block_at<V>(rec[3], at)};
+    transpose4(in, out);
+}
+template <class V, class T>
+PARODE_LANE_INLINE void store_block(T* rec, std::size_t at, const V& v) {
+    *reinterpret_cast<Unaligned<V>*>(reinterpret_cast<char*>(rec) + at) = v;
+}
 // Square root lane by lane; SSE2 square roots on x86-64 (IEEE square
 // roots are correctly rounded: the same bits as std::sqrt, without its errno
 // branch per lane).
@@ -237,6 +279,40 @@ PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
     t2[2] = yz ? n[0] * t1[1] : a * k;
 }
 
+// Four bodies' rows (fc[0..3] | fc[4], fc[5], invm, invi) read as two
+// blocks each and transposed into lanes.
+template <class V>
+PARODE_LANE_INLINE void load_lanes4(const BodyRow* const* B, V* f, V& invm, V& invi) {
+    V b[4];
+    detail::load_blocks(B, 0, f);
+    detail::load_blocks(B, 4 * sizeof(double), b);
+    f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
+}
+// A body's row written back as two blocks (its invm and invi unchanged).
+template <class V>
+PARODE_LANE_INLINE void store_body4(BodyRow& B, const V& lo, const V& hi) {
+    detail::store_block(&B, 0, lo);
+    detail::store_block(&B, sizeof(V), hi);
+}
+// What four lanes write back: each row's lambda (with its mu, unchanged) as
+// one block, each body's row as two (a static partner's not at all).
+template <class V>
+PARODE_LANE_INLINE void store_lanes4(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
+                                     V i1, const V* f2, V m2, V i2) {
+    const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
+    V out[4], lo1[4], hi1[4], lo2[4], hi2[4];
+    detail::transpose4(rows, out);
+    detail::transpose4(f1, lo1);
+    detail::transpose4(h1, hi1);
+    detail::transpose4(f2, lo2);
+    detail::transpose4(h2, hi2);
+    for (int l = 0; l < 4; ++l) {
+        detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
+        store_body4(bodies[K[l]->b1], lo1[l], hi1[l]);
+        if (K[l]->b2 >= 0) store_body4(bodies[K[l]->b2], lo2[l], hi2[l]);
+    }
+}
+
 // One projected Gauss-Seidel update of every row of L sphere contacts that
 // share no body (one per lane of V: double for one, detail::Pair for two,
 // detail::Quad for four),
@@ -257,22 +333,34 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         B1[l] = &bodies[K[l]->b1];
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
-    V f1[6], f2[6], n[3], t1[3], t2[3];
-    for (int i = 0; i < 6; ++i) {
-        f1[i] = gather_lanes<V, L>([&](int l) { return B1[l]->fc[i]; });
-        f2[i] = gather_lanes<V, L>([&](int l) { return B2[l]->fc[i]; });
+    V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu;
+    if constexpr (L == 4) {
+        load_lanes4(B1, f1, m1, i1);
+        load_lanes4(B2, f2, m2, i2);
+        V b[4];
+        load_blocks(K, offsetof(SphereRow, n), b);
+        n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
+        load_blocks(K, offsetof(SphereRow, r2), b);
+        r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
+        load_blocks(K, offsetof(SphereRow, lambda), b);
+        lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
+    } else {
+        for (int i = 0; i < 6; ++i) {
+            f1[i] = gather_lanes<V, L>([&](int l) { return B1[l]->fc[i]; });
+            f2[i] = gather_lanes<V, L>([&](int l) { return B2[l]->fc[i]; });
+        }
+        for (int i = 0; i < 3; ++i) n[i] = gather_lanes<V, L>([&](int l) { return K[l]->n[i]; });
+        r1 = gather_lanes<V, L>([&](int l) { return K[l]->r1; }), r2 = gather_lanes<V, L>([&](int l) { return K[l]->r2; });
+        m1 = gather_lanes<V, L>([&](int l) { return B1[l]->invm; }), m2 = gather_lanes<V, L>([&](int l) { return B2[l]->invm; });
+        i1 = gather_lanes<V, L>([&](int l) { return B1[l]->invi; }), i2 = gather_lanes<V, L>([&](int l) { return B2[l]->invi; });
+        mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
+        for (int r = 0; r < 3; ++r) {
+            rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
+            lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
+        }
     }
-    for (int i = 0; i < 3; ++i) n[i] = gather_lanes<V, L>([&](int l) { return K[l]->n[i]; });
     tangent_frame(n, t1, t2);
-    const V r1 = gather_lanes<V, L>([&](int l) { return K[l]->r1; }), r2 = gather_lanes<V, L>([&](int l) { return K[l]->r2; });
-    const V m1 = gather_lanes<V, L>([&](int l) { return B1[l]->invm; }), m2 = gather_lanes<V, L>([&](int l) { return B2[l]->invm; });
-    const V k1 = gather_lanes<V, L>([&](int l) { return B1[l]->invi; }) * r1, k2 = gather_lanes<V, L>([&](int l) { return B2[l]->invi; }) * r2;
-    const V mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
-    V rhs[3], lam[3];
-    for (int r = 0; r < 3; ++r) {
-        rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
-        lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
-    }
+    const V k1 = i1 * r1, k2 = i2 * r2;
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
     const V cfm = splat<V>(c.cfm);
     V ad_n, ad_t;
@@ -308,6 +396,10 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         f1[3 + i] += k1 * da[i];
         f2[i] -= m2 * dl[i];
         f2[3 + i] += k2 * da[i];
+    }
+    if constexpr (L == 4) {
+        store_lanes4(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
+        return;
     }
     for (int l = 0; l < L; ++l) {
         K[l]->lambda[0] = lane(n0, l);
