@@ -76,8 +76,8 @@ nlohmann::json distributed_json(const CellCensus& census, const InfoArgs& a, con
     j["estimate"] = {{"bodies_per_rank_max", g.bodies_max},
                      {"ghosts_per_rank", {{"mean", g.ghosts_mean}, {"max", g.ghosts_max}}},
                      {"ghost_fraction", g.fraction},
-                     {"method", "ideal planar cuts of the occupied cells' box into blocks of equal bodies (a lower bound: METIS's "
-                                "cuts of the cell graph made 1.3 to 1.9 times these ghosts on the tennis prism)"}};
+                     {"method", "ideal planar cuts of the occupied cells' box into blocks of equal bodies (a lower bound: the "
+                                "partition's cuts of the tennis prism made 1.07 to 1.09 times these ghosts)"}};
     return j;
 }
 

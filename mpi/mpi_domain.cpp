@@ -158,9 +158,13 @@ void MpiDomain::partition(std::vector<CellLoad> cells) {
             if (!held[r].empty()) std::memcpy(held[r].data(), parts[r].data(), parts[r].size());
             all.insert(all.end(), held[r].begin(), held[r].end());
         }
+        const std::string& who = scene_.parallel.partitioner;
         Partition p = partition_cells(merge_cells(std::move(all)), ranks(),
-                                      scene_.parallel.balance_colours ? Balance::Colours : Balance::Total);
+                                      scene_.parallel.balance_colours ? Balance::Colours : Balance::Total,
+                                      who == "metis" ? Partitioner::Metis : who == "bisection" ? Partitioner::Bisection
+                                                                                              : Partitioner::Best);
         keep_owners(p, held, ranks());
+        put(result, static_cast<std::int32_t>(p.bisection));
         put(result, static_cast<std::uint64_t>(p.keys.size()));
         put(result, p.edge_cut);
         put(result, p.imbalance);
@@ -172,6 +176,7 @@ void MpiDomain::partition(std::vector<CellLoad> cells) {
     }
     comm_.broadcast(result, 0);
     std::size_t at = 0;
+    bisection_ = take<std::int32_t>(result, at) != 0;
     const auto n = take<std::uint64_t>(result, at);
     edge_cut_ = take<std::int64_t>(result, at);
     partition_imbalance_ = take<double>(result, at);
@@ -508,6 +513,7 @@ nlohmann::json MpiDomain::report() const {
             {"imbalance", imbalance_},
             {"partition_imbalance", partition_imbalance_},
             {"partition_colour_imbalance", partition_colour_imbalance_},
+            {"partitioner", bisection_ ? "bisection" : "metis"},
             {"balance", scene_.parallel.balance_colours ? "colours" : "total"},
             {"edge_cut", edge_cut_},
             {"ghost_fraction", static_cast<double>(c[0]) / n},

@@ -160,6 +160,7 @@ private:
     CommStats setup_stats_;                        // what setup cost: the stats when the first step began
     std::int64_t edge_cut_ = 0;
     double partition_imbalance_ = 1.0, partition_colour_imbalance_ = 1.0, imbalance_ = 1.0;
+    bool bisection_ = false;  // the last partition was the bisection's
 };
 
 }  // namespace parode::mpi

@@ -213,20 +213,45 @@ Partition one_partition(const std::vector<CellLoad>& cells, int parts, Balance b
     return p;
 }
 
+Partition bisected(const std::vector<CellLoad>& cells, int parts) {
+    Partition p;
+    for (const CellLoad& c : cells) p.keys.push_back(c.key);
+    p.owner = bisect_parts(cells, parts);
+    p.bisection = true;
+    measure(cells, build_graph(cells, Balance::Total), parts, p);
+    return p;
+}
+
+// The better balanced colours; within 0.5 %, the smaller cut; then a.
+Partition& better(Partition& a, Partition& b) {
+    if (a.colour_imbalance * 1.005 < b.colour_imbalance) return a;
+    if (b.colour_imbalance * 1.005 < a.colour_imbalance) return b;
+    return b.edge_cut < a.edge_cut ? b : a;
+}
+
+Partition metis_partition(const std::vector<CellLoad>& cells, int parts, Balance balance) {
+    Partition total = one_partition(cells, parts, Balance::Total);
+    if (balance == Balance::Total || parts <= 1) return total;
+    Partition colours = one_partition(cells, parts, Balance::Colours);
+    return std::move(better(total, colours));
+}
+
 }  // namespace
 
 // Balance::Colours: METIS's multi-constraint answer balances every colour
 // within its tolerance, but may cut more than the single-constraint one,
 // which on few parts often balances the colours as well: both are made and
 // the one whose colours are better balanced kept (within 0.5 %, the smaller
-// cut). Deterministic: METIS runs with a fixed seed.
-Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance) {
-    Partition total = one_partition(cells, parts, Balance::Total);
-    if (balance == Balance::Total || parts <= 1) return total;
-    Partition colours = one_partition(cells, parts, Balance::Colours);
-    if (colours.colour_imbalance * 1.005 < total.colour_imbalance) return colours;
-    if (total.colour_imbalance * 1.005 < colours.colour_imbalance) return total;
-    return colours.edge_cut < total.edge_cut ? colours : total;
+// cut). The bisection is a third candidate (Partitioner::Best), kept the same
+// way. Deterministic: METIS runs with a fixed seed, the bisection has no
+// choice to make.
+Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance, Partitioner who) {
+    const bool few = parts <= 1 || cells.size() < 4 * static_cast<std::size_t>(parts);
+    if (who == Partitioner::Bisection && !few) return bisected(cells, parts);
+    Partition metis = metis_partition(cells, parts, balance);
+    if (who == Partitioner::Metis || few) return metis;
+    Partition cut = bisected(cells, parts);
+    return std::move(better(metis, cut));
 }
 
 namespace {

@@ -1,5 +1,6 @@
 // Partitioning of the occupied cells among processes with METIS
-// (METIS_PartGraphKway, multi-constraint). The graph: one vertex per occupied
+// (METIS_PartGraphKway, multi-constraint), or by recursive coordinate
+// bisection (bisection.cpp), whichever balances the colours better. The graph: one vertex per occupied
 // cell with one weight per colour (the work in the cell, bodies + contacts,
 // in its colour's slot) and one for its bodies: the contact solver waits for
 // the slowest process after every colour, so each colour's work is balanced
@@ -52,6 +53,7 @@ struct Partition {
     // The sum over colours of the largest part's work in that colour, over
     // the sum of the means: what the solver's per-colour waits cost.
     double colour_imbalance = 1.0;
+    bool bisection = false;  // made by bisect_parts, not METIS
 };
 
 std::array<std::int64_t, 8> colour_work(const CellLoad& c);
@@ -61,9 +63,17 @@ std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells);
 // What the partition balances: each colour's work and the bodies (the
 // default), or each part's total work alone (one constraint).
 enum class Balance { Colours, Total };
+// Who cuts: the better balanced of METIS's and the bisection's partitions
+// (Best: the smaller colour imbalance; within 0.5 %, the smaller edge cut),
+// or one of them.
+enum class Partitioner { Best, Metis, Bisection };
 // `cells` merged (sorted, unique keys). Deterministic: the same cells give
 // the same partition.
-Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance = Balance::Colours);
+Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance = Balance::Colours,
+                          Partitioner who = Partitioner::Best);
+// Recursive coordinate bisection of `units` (merged) into `parts` of equal
+// work, cut between pairs of cell layers (bisection.cpp); the owner of each unit.
+std::vector<int> bisect_parts(const std::vector<CellLoad>& units, int parts);
 // Renumbers the parts of `p` (same cells, same cut) so that as much work as
 // possible stays on the process that holds it: held[r] are the cells process
 // r holds now. METIS numbers its parts afresh each call, so without this a

@@ -296,6 +296,15 @@ TEST(SceneFile, ExampleScenesLoad) {
     EXPECT_TRUE(fast.controller.path == parode::DrivePath::Straight);
 }
 
+// Who partitions the cells is one of three names; anything else names the key.
+TEST(SceneOverride, PartitionerIsChecked) {
+    const std::string tennis = kSourceDir + "/jobs/scenes/tennis.toml";
+    const std::string msg = scene_error(tennis, {"parallel.partitioner=\"scotch\""});
+    EXPECT_NE(msg.find("parallel.partitioner"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("expected one of \"best\", \"metis\", \"bisection\""), std::string::npos) << msg;
+    EXPECT_EQ(parode::load_scene(tennis, {"parallel.partitioner=\"bisection\""}).parallel.partitioner, "bisection");
+}
+
 // The driver's table is checked like the others: an unknown path type, or a key
 // of an older driver, names the key and what is accepted.
 TEST(SceneOverride, ControllerKeysAreChecked) {

@@ -211,6 +211,9 @@ struct ParallelSpec {
     // The partition balances each colour's work (the solver waits for the
     // slowest rank after every colour), or only each rank's total.
     bool balance_colours = true;
+    // Who cuts the cells: "best" (the better balanced of METIS's partition and
+    // a recursive coordinate bisection), "metis" or "bisection".
+    std::string partitioner = "best";
     // The solver relaxes a colour's interior cells while the corrections of
     // its boundary cells travel; off: every cell before the exchange.
     bool overlap = true;

@@ -349,6 +349,7 @@ void read_parallel(const Node& root, ParallelSpec& p) {
     p.rebalance_threshold = t.number("rebalance_threshold", p.rebalance_threshold, 1.0);
     p.rebalance_every = static_cast<int>(t.integer("rebalance_every", p.rebalance_every, 1, 1000000));
     p.balance_colours = t.choice("balance", "colours", {"colours", "total"}) == "colours";
+    p.partitioner = t.choice("partitioner", p.partitioner, {"best", "metis", "bisection"});
     p.overlap = t.boolean("overlap", p.overlap);
 }
 

@@ -294,6 +294,8 @@ std::vector<SceneKey> build() {
          integer("rebalance_every").in(1, 1e6).def(par.rebalance_every).means("steps between load measurements"),
          K("balance", "one of \"colours\", \"total\"").def("\"colours\"")
              .means("what the partition balances: each colour's work and the bodies, or each rank's total"),
+         K("partitioner", "one of \"best\", \"metis\", \"bisection\"").def("\"best\"")
+             .means("who cuts the cells: the better balanced of METIS and coordinate bisection, or one of them"),
          boolean("overlap", true).means("relax a colour's interior cells while its boundary corrections travel")});
     add(out, "run",
         {str("collide").def("unset: \"grid\"").means("collision backend (checked when the run starts)"),
