@@ -77,7 +77,7 @@ nlohmann::json distributed_json(const CellCensus& census, const InfoArgs& a, con
                      {"ghosts_per_rank", {{"mean", g.ghosts_mean}, {"max", g.ghosts_max}}},
                      {"ghost_fraction", g.fraction},
                      {"method", "ideal planar cuts of the occupied cells' box into blocks of equal bodies (a lower bound: the "
-                                "partition's cuts of the tennis prism made 1.07 to 1.09 times these ghosts)"}};
+                                "partitions of the tennis prism made 1.07 to 1.7 times these ghosts)"}};
     return j;
 }
 
