@@ -202,24 +202,26 @@ void measure(const std::vector<CellLoad>& cells, const Graph& g, int parts, Part
     p.imbalance = mean > 0 ? static_cast<double>(*std::max_element(work.begin(), work.end())) / mean : 1.0;
 }
 
-Partition one_partition(const std::vector<CellLoad>& cells, int parts, Balance balance) {
+// Too few cells for METIS: contiguous runs of keys (block_parts) instead.
+bool few_cells(const std::vector<CellLoad>& cells, int parts) {
+    return parts <= 1 || cells.size() < 4 * static_cast<std::size_t>(parts);
+}
+
+// The partition `owner` of `cells`, measured on `g` (any balance's graph:
+// the cut reads only its edges).
+Partition measured(const std::vector<CellLoad>& cells, const Graph& g, int parts, std::vector<int> owner, bool bisection) {
     Partition p;
     for (const CellLoad& c : cells) p.keys.push_back(c.key);
-    Graph g = build_graph(cells, balance);
-    idx_t cut = 0;
-    p.owner = parts <= 1 || cells.size() < 4 * static_cast<std::size_t>(parts) ? block_parts(cells.size(), parts)
-                                                                               : metis_parts(g, parts, cut);
+    p.owner = std::move(owner);
+    p.bisection = bisection;
     measure(cells, g, parts, p);
     return p;
 }
 
-Partition bisected(const std::vector<CellLoad>& cells, int parts) {
-    Partition p;
-    for (const CellLoad& c : cells) p.keys.push_back(c.key);
-    p.owner = bisect_parts(cells, parts);
-    p.bisection = true;
-    measure(cells, build_graph(cells, Balance::Total), parts, p);
-    return p;
+Partition metis_on(const std::vector<CellLoad>& cells, Graph& g, int parts) {
+    idx_t cut = 0;
+    return measured(cells, g, parts, few_cells(cells, parts) ? block_parts(cells.size(), parts) : metis_parts(g, parts, cut),
+                    false);
 }
 
 // The better balanced colours; within 0.5 %, the smaller cut; then a.
@@ -229,13 +231,6 @@ Partition& better(Partition& a, Partition& b) {
     return b.edge_cut < a.edge_cut ? b : a;
 }
 
-Partition metis_partition(const std::vector<CellLoad>& cells, int parts, Balance balance) {
-    Partition total = one_partition(cells, parts, Balance::Total);
-    if (balance == Balance::Total || parts <= 1) return total;
-    Partition colours = one_partition(cells, parts, Balance::Colours);
-    return std::move(better(total, colours));
-}
-
 }  // namespace
 
 // Balance::Colours: METIS's multi-constraint answer balances every colour
@@ -243,14 +238,21 @@ Partition metis_partition(const std::vector<CellLoad>& cells, int parts, Balance
 // which on few parts often balances the colours as well: both are made and
 // the one whose colours are better balanced kept (within 0.5 %, the smaller
 // cut). The bisection is a third candidate (Partitioner::Best), kept the same
-// way. Deterministic: METIS runs with a fixed seed, the bisection has no
-// choice to make.
+// way. The single-constraint graph is built once: METIS's and the
+// bisection's cuts are both measured on it. Deterministic: METIS runs with a
+// fixed seed, the bisection has no choice to make.
 Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance, Partitioner who) {
-    const bool few = parts <= 1 || cells.size() < 4 * static_cast<std::size_t>(parts);
-    if (who == Partitioner::Bisection && !few) return bisected(cells, parts);
-    Partition metis = metis_partition(cells, parts, balance);
+    const bool few = few_cells(cells, parts);
+    Graph total = build_graph(cells, Balance::Total);
+    if (who == Partitioner::Bisection && !few) return measured(cells, total, parts, bisect_parts(cells, parts), true);
+    Partition metis = metis_on(cells, total, parts);
+    if (balance == Balance::Colours && !few) {  // with few cells both are the same runs of keys
+        Graph by_colour = build_graph(cells, Balance::Colours);
+        Partition colours = metis_on(cells, by_colour, parts);
+        if (&better(metis, colours) == &colours) metis = std::move(colours);
+    }
     if (who == Partitioner::Metis || few) return metis;
-    Partition cut = bisected(cells, parts);
+    Partition cut = measured(cells, total, parts, bisect_parts(cells, parts), true);
     return std::move(better(metis, cut));
 }
 
