@@ -76,7 +76,7 @@ def run(args, v):
            "wait_ms_max": 1e3 * par.get("wait_seconds", {}).get("max", 0.0) / steps,
            "wait_ms_avg": 1e3 * par.get("wait_seconds", {}).get("avg", 0.0) / steps,
            "exchange_bytes_per_step": sum(par.get("colour_bytes", [0])) / steps,
-           "edge_cut": par.get("edge_cut", 0), "partition_colour_imbalance": par.get("partition_colour_imbalance", 1.0),
+           "edge_cut": par.get("edge_cut") if par.get("edge_cut") is not None else float("nan"), "partition_colour_imbalance": par.get("partition_colour_imbalance", 1.0),
            "ghost_fraction": par.get("ghost_fraction", 0.0),
            "rss_mb_max": r["memory"]["peak_rss_bytes"]["max"] / 2**20}
     for c, col in enumerate(colours):

@@ -15,6 +15,21 @@ void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, i
     owners_ = std::move(owners);
     ranks_ = ranks;
     edge_ = std::max(edge, 1);
+    by_tree_ = false;
+    tree_ = CutTree();
+    rank_of_.clear();
+    owner_cache_.clear();
+    holder_cache_.clear();
+}
+
+void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
+    keys_.clear();
+    owners_.clear();
+    ranks_ = static_cast<int>(rank_of.size());
+    edge_ = 1;
+    by_tree_ = true;
+    tree_ = std::move(tree);
+    rank_of_ = std::move(rank_of);
     owner_cache_.clear();
     holder_cache_.clear();
 }
@@ -50,6 +65,7 @@ int CellMap::nearest_owner(std::uint64_t key) const {
 }
 
 int CellMap::owner(std::uint64_t cell) const {
+    if (by_tree_) return rank_of_[static_cast<std::size_t>(tree_.part(cell))];
     const std::uint64_t key = block_of(cell, edge_);
     const int o = mapped_owner(key);
     if (o >= 0) return o;

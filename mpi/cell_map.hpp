@@ -10,15 +10,21 @@
 // holders(key): the owners of the 27 cells around a cell; a body there is
 // owned by the owner of its cell and copied (a ghost) to every other holder,
 // which covers all contact and magnet partners (they lie in adjacent cells).
-// Trade-off: the map is replicated (12 bytes per occupied block on every
-// process, up to 64 times fewer than cells), which keeps lookups local and
-// deterministic; at 10^10 catoms (10^8 blocks) it would want a distributed
-// directory instead. The holders of a cell are cached for the cells this
+// A partition the processes made together (cut_tree.hpp) is kept as its tree
+// of cuts instead (2 parts - 1 nodes) with the rank of each part: the owner
+// of any cell is then its part's rank, and no list of cells is kept at all.
+// Trade-off: a gathered partition's map is replicated (12 bytes per occupied
+// block on every process, up to 64 times fewer than cells), which keeps
+// lookups local and deterministic; beyond the size the root partitions
+// (partition.hpp: kGatherUnits) the tree replaces it, whose lookups descend
+// log2(ranks) cuts. The holders of a cell are cached for the cells this
 // process meets: its own and its neighbours', a local size.
 #pragma once
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
+
+#include "cut_tree.hpp"
 
 namespace parode::mpi {
 
@@ -29,6 +35,10 @@ public:
     // `keys` (blocks of `edge` cells a side, partition.hpp: block_of) sorted
     // ascending, `owners[i]` the rank of keys[i].
     void assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks, int edge = 1);
+    // The partition as a tree of cuts, part p on rank rank_of[p].
+    void assign(CutTree tree, std::vector<int> rank_of);
+    bool by_tree() const { return by_tree_; }
+    const CutTree& tree() const { return tree_; }
     int edge() const { return edge_; }
     int owner(std::uint64_t cell) const;
     // Sorted distinct ranks owning the cell and its 26 neighbours.
@@ -45,6 +55,9 @@ private:
     std::vector<int> owners_;
     int ranks_ = 1;
     int edge_ = 1;
+    bool by_tree_ = false;
+    CutTree tree_;
+    std::vector<int> rank_of_;  // per part of tree_
     mutable std::unordered_map<std::uint64_t, int> owner_cache_;
     mutable std::unordered_map<std::uint64_t, std::vector<int>> holder_cache_;
 };

@@ -111,6 +111,16 @@ void Comm::max(double* v, int n) const {
     check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
 }
 
+void Comm::min(std::uint64_t* v, int n) const {
+    Clock c(stats_);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "MPI_Allreduce");
+}
+
+void Comm::max(std::uint64_t* v, int n) const {
+    Clock c(stats_);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+}
+
 std::vector<Bytes> Comm::all_gather(const Bytes& mine) const {
     Clock c(stats_);
     int n = static_cast<int>(mine.size());

@@ -88,6 +88,8 @@ public:
     void sum(std::int64_t* v, int n) const;
     void sum_wrapping(std::uint64_t* v, int n) const;
     void max(double* v, int n) const;
+    void min(std::uint64_t* v, int n) const;
+    void max(std::uint64_t* v, int n) const;
     std::vector<Bytes> all_gather(const Bytes& mine) const;
     std::vector<Bytes> gather(const Bytes& mine, int root) const;
     void broadcast(Bytes& bytes, int root) const;

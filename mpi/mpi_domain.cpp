@@ -8,12 +8,14 @@
 #include <stdexcept>
 
 #include "domain/distribution.hpp"
+#include "cut_tree.hpp"
 #include "partition.hpp"
 #include "observe/diagnostics.hpp"
 #include "util/errors.hpp"
 #include "scene/toml_reader.hpp"
 #include "exec/execution.hpp"
 #include "util/split_mix.hpp"
+#include "util/substages.hpp"
 
 namespace parode::mpi {
 namespace {
@@ -136,14 +138,90 @@ void MpiDomain::repartition(const World& world, const std::vector<WarmImpulse>* 
     partition(merge_cells(std::move(mine)));
 }
 
+// Collective: the cells are partitioned, by the root from all of them up to
+// kGatherUnits occupied cells (or always for METIS), else by every process
+// together (the bisection's tree, partition.hpp).
+void MpiDomain::partition(std::vector<CellLoad> cells) {
+    std::int64_t occupied = static_cast<std::int64_t>(cells.size());
+    comm_.sum(&occupied, 1);
+    const std::string& who = scene_.parallel.partitioner;
+    const bool together = occupied >= 4 * std::int64_t{ranks()} &&
+                          (who == "bisection" || (who == "best" && occupied > kGatherUnits));
+    const double t0 = now_seconds();
+    if (together) cut_together(cells);
+    else gather_and_cut(cells, occupied);
+    partition_seconds_ += now_seconds() - t0;
+    together_ = together;
+    ++epoch_;  // every body's cached owner and holders belong to the old map
+}
+
+namespace {
+
+// build_cut_tree's reductions over every process.
+class CommReductions : public Reductions {
+public:
+    explicit CommReductions(const Comm& comm) : comm_(comm) {}
+    void sum(std::int64_t* v, int n) override { comm_.sum(v, n); }
+    void min(std::uint64_t* v, int n) override { comm_.min(v, n); }
+    void max(std::uint64_t* v, int n) override { comm_.max(v, n); }
+
+private:
+    const Comm& comm_;
+};
+
+}  // namespace
+
+// Collective: the bisection's tree from every process's own cells; its
+// balance from each part's work summed over processes; each part to the
+// process holding most of its work now (keep_owners's rule, from the
+// processes' overlaps alone, gathered: a few entries each).
+void MpiDomain::cut_together(const std::vector<CellLoad>& cells) {
+    CommReductions reduce(comm_);
+    CutTree tree = build_cut_tree(cells, ranks(), reduce);
+    const auto np = static_cast<std::size_t>(ranks());
+    std::vector<std::int64_t> work(np * 9, 0);  // per part: its work by colour, then in all
+    std::map<int, std::int64_t> here;           // this process's work in each part
+    for (const CellLoad& c : cells) {
+        const int part = tree.part(c.key);
+        const std::array<std::int64_t, 8> w = colour_work(c);
+        for (std::size_t k = 0; k < 8; ++k) work[static_cast<std::size_t>(part) * 9 + k] += w[k];
+        work[static_cast<std::size_t>(part) * 9 + 8] += c.work;
+        here[part] += c.work;
+    }
+    comm_.sum(work.data(), static_cast<int>(work.size()));
+    std::vector<std::int64_t> total(np), by_colour(np * 8);
+    for (std::size_t r = 0; r < np; ++r) {
+        total[r] = work[r * 9 + 8];
+        for (std::size_t k = 0; k < 8; ++k) by_colour[r * 8 + k] = work[r * 9 + k];
+    }
+    balance_of(total, by_colour, partition_imbalance_, partition_colour_imbalance_);
+    Bytes mine;
+    for (const auto& [part, w] : here) put(mine, Overlap{w, part, rank()});
+    const auto all = comm_.gather(mine, 0);
+    Bytes result;
+    if (comm_.rank() == 0) {
+        std::vector<Overlap> o;
+        for (const Bytes& b : all) {
+            for (std::size_t at = 0; at < b.size();) o.push_back(take<Overlap>(b, at));
+        }
+        for (int r : ranks_by_overlap(std::move(o), ranks())) put(result, static_cast<std::int32_t>(r));
+    }
+    comm_.broadcast(result, 0);
+    std::vector<int> rank_of(np);
+    std::size_t at = 0;
+    for (int& r : rank_of) r = take<std::int32_t>(result, at);
+    tree_nodes_ = static_cast<std::int64_t>(tree.nodes().size());
+    map_.assign(std::move(tree), std::move(rank_of));
+    bisection_ = true;
+    edge_cut_ = -1;  // the edges between cells are not seen whole anywhere
+}
+
 // Collective: the root gathers every process's cells (merged), partitions
 // them, keeps parts on the processes that hold most of them (keep_owners) and
 // sends the map back.
-void MpiDomain::partition(std::vector<CellLoad> cells) {
+void MpiDomain::gather_and_cut(const std::vector<CellLoad>& cells, std::int64_t occupied) {
     // Blocks of cells, summed here: what reaches the root grows with the
     // machine 64 times slower than the cells (partition.hpp: block_edge).
-    std::int64_t occupied = static_cast<std::int64_t>(cells.size());
-    comm_.sum(&occupied, 1);
     const int edge = block_edge(occupied, ranks());
     const std::vector<CellLoad> mine = coarsen(cells, edge);
     Bytes packed(mine.size() * sizeof(CellLoad));
@@ -188,7 +266,7 @@ void MpiDomain::partition(std::vector<CellLoad> cells) {
         owners[i] = take<std::int32_t>(result, at);
     }
     map_.assign(std::move(keys), std::move(owners), ranks(), edge);
-    ++epoch_;  // every body's cached owner and holders belong to the old map
+    tree_nodes_ = 0;
 }
 
 // Collective: max over processes of (owned bodies + contacts) / the mean.
@@ -515,7 +593,10 @@ nlohmann::json MpiDomain::report() const {
             {"partition_colour_imbalance", partition_colour_imbalance_},
             {"partitioner", bisection_ ? "bisection" : "metis"},
             {"balance", scene_.parallel.balance_colours ? "colours" : "total"},
-            {"edge_cut", edge_cut_},
+            {"edge_cut", edge_cut_ >= 0 ? nlohmann::json(edge_cut_) : nlohmann::json(nullptr)},
+            {"partition_made_by", together_ ? "every process" : "root"},
+            {"partition_seconds", {{"min", collectives_.min(partition_seconds_)}, {"max", collectives_.max(partition_seconds_)}}},
+            {"cut_tree_nodes", tree_nodes_},
             {"ghost_fraction", static_cast<double>(c[0]) / n},
             {"migrations", c[2]},
             {"repartitions", repartitions_},

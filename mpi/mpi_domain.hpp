@@ -103,6 +103,8 @@ private:
     std::uint32_t next_mark();
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
     void partition(std::vector<CellLoad> mine);
+    void cut_together(const std::vector<CellLoad>& cells);
+    void gather_and_cut(const std::vector<CellLoad>& cells, std::int64_t occupied);
     void move_bodies(World& world, std::vector<WarmImpulse>* warm);
     void receive_bodies(World& world, std::vector<WarmImpulse>* warm, const std::vector<std::pair<int, Bytes>>& in);
     void index_bodies(World& world);
@@ -161,6 +163,9 @@ private:
     std::int64_t edge_cut_ = 0;
     double partition_imbalance_ = 1.0, partition_colour_imbalance_ = 1.0, imbalance_ = 1.0;
     bool bisection_ = false;  // the last partition was the bisection's
+    bool together_ = false;   // ... made by every process together (its tree)
+    std::int64_t tree_nodes_ = 0;
+    double partition_seconds_ = 0;  // in partition(), setup and repartitions
 };
 
 }  // namespace parode::mpi

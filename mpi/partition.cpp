@@ -170,27 +170,35 @@ std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells) {
     return out;
 }
 
-namespace {
-
-// The figures of a partition `owner` of `cells` (graph `g`).
-void measure(const std::vector<CellLoad>& cells, const Graph& g, int parts, Partition& p) {
-    const std::size_t np = static_cast<std::size_t>(std::max(parts, 1));
-    std::vector<std::int64_t> work(np, 0), by_colour(np * kColours, 0);
+void balance_of(const std::vector<std::int64_t>& work, const std::vector<std::int64_t>& by_colour, double& imbalance,
+                double& colour_imbalance) {
+    const std::size_t np = work.size();
     std::int64_t total = 0;
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        const auto part = static_cast<std::size_t>(p.owner[i]);
-        const std::array<std::int64_t, 8> w = colour_work(cells[i]);
-        work[part] += cells[i].work;
-        for (int c = 0; c < kColours; ++c) by_colour[part * kColours + static_cast<std::size_t>(c)] += w[static_cast<std::size_t>(c)];
-        total += cells[i].work;
-    }
+    for (std::int64_t w : work) total += w;
     double slowest = 0;
     for (int c = 0; c < kColours; ++c) {
         std::int64_t most = 0;
         for (std::size_t r = 0; r < np; ++r) most = std::max(most, by_colour[r * kColours + static_cast<std::size_t>(c)]);
         slowest += static_cast<double>(most);
     }
-    p.colour_imbalance = total > 0 ? slowest * static_cast<double>(np) / static_cast<double>(total) : 1.0;
+    colour_imbalance = total > 0 ? slowest * static_cast<double>(np) / static_cast<double>(total) : 1.0;
+    const double mean = static_cast<double>(total) / static_cast<double>(np);
+    imbalance = mean > 0 ? static_cast<double>(*std::max_element(work.begin(), work.end())) / mean : 1.0;
+}
+
+namespace {
+
+// The figures of a partition `owner` of `cells` (graph `g`).
+void measure(const std::vector<CellLoad>& cells, const Graph& g, int parts, Partition& p) {
+    const std::size_t np = static_cast<std::size_t>(std::max(parts, 1));
+    std::vector<std::int64_t> work(np, 0), by_colour(np * kColours, 0);
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        const auto part = static_cast<std::size_t>(p.owner[i]);
+        const std::array<std::int64_t, 8> w = colour_work(cells[i]);
+        work[part] += cells[i].work;
+        for (int c = 0; c < kColours; ++c) by_colour[part * kColours + static_cast<std::size_t>(c)] += w[static_cast<std::size_t>(c)];
+    }
+    balance_of(work, by_colour, p.imbalance, p.colour_imbalance);
     p.edge_cut = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         for (idx_t e = g.xadj[i]; e < g.xadj[i + 1]; ++e) {
@@ -198,8 +206,6 @@ void measure(const std::vector<CellLoad>& cells, const Graph& g, int parts, Part
         }
     }
     p.edge_cut /= 2;  // each cut edge seen from both ends
-    const double mean = static_cast<double>(total) / static_cast<double>(work.size());
-    p.imbalance = mean > 0 ? static_cast<double>(*std::max_element(work.begin(), work.end())) / mean : 1.0;
 }
 
 // Too few cells for METIS: contiguous runs of keys (block_parts) instead.
@@ -258,11 +264,6 @@ Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance
 
 namespace {
 
-struct Overlap {
-    std::int64_t work;
-    int part, process;
-};
-
 // Work of each (new part, current process) pair that shares cells, summed.
 std::vector<Overlap> overlaps(const Partition& p, const std::vector<std::vector<CellLoad>>& held) {
     std::vector<Overlap> o;
@@ -273,6 +274,12 @@ std::vector<Overlap> overlaps(const Partition& p, const std::vector<std::vector<
             o.push_back({c.work, p.owner[static_cast<std::size_t>(it - p.keys.begin())], static_cast<int>(r)});
         }
     }
+    return o;
+}
+
+}  // namespace
+
+std::vector<int> ranks_by_overlap(std::vector<Overlap> o, int parts) {
     std::sort(o.begin(), o.end(), [](const Overlap& a, const Overlap& b) {
         return a.part != b.part ? a.part < b.part : a.process < b.process;
     });
@@ -281,20 +288,13 @@ std::vector<Overlap> overlaps(const Partition& p, const std::vector<std::vector<
         if (!sum.empty() && sum.back().part == x.part && sum.back().process == x.process) sum.back().work += x.work;
         else sum.push_back(x);
     }
-    return sum;
-}
-
-}  // namespace
-
-void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, int parts) {
-    std::vector<Overlap> o = overlaps(p, held);
-    std::stable_sort(o.begin(), o.end(), [](const Overlap& a, const Overlap& b) { return a.work > b.work; });
+    std::stable_sort(sum.begin(), sum.end(), [](const Overlap& a, const Overlap& b) { return a.work > b.work; });
     const auto n = static_cast<std::size_t>(parts);
     std::vector<int> to(n, -1);
     std::vector<char> taken(n, 0);
-    for (const Overlap& x : o) {
+    for (const Overlap& x : sum) {
         const auto part = static_cast<std::size_t>(x.part), process = static_cast<std::size_t>(x.process);
-        if (process >= n || to[part] >= 0 || taken[process]) continue;
+        if (part >= n || process >= n || to[part] >= 0 || taken[process]) continue;
         to[part] = x.process;
         taken[process] = 1;
     }
@@ -305,6 +305,11 @@ void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, i
         to[part] = static_cast<int>(free);
         taken[free] = 1;
     }
+    return to;
+}
+
+void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, int parts) {
+    const std::vector<int> to = ranks_by_overlap(overlaps(p, held), parts);
     for (int& owner : p.owner) owner = to[static_cast<std::size_t>(owner)];
 }
 

@@ -1,6 +1,6 @@
 // Partitioning of the occupied cells among processes with METIS
 // (METIS_PartGraphKway, multi-constraint), or by recursive coordinate
-// bisection (bisection.cpp), whichever balances the colours better. The graph: one vertex per occupied
+// bisection (cut_tree.hpp), whichever balances the colours better. The graph: one vertex per occupied
 // cell with one weight per colour (the work in the cell, bodies + contacts,
 // in its colour's slot) and one for its bodies: the contact solver waits for
 // the slowest process after every colour, so each colour's work is balanced
@@ -8,7 +8,8 @@
 // (the 26 neighbours), weighted by the bodies of the two cells, which are what
 // becomes ghosts if the edge is cut: the edge cut is the boundary traffic.
 // No MPI here: the distributed layer gathers the cells to one process, calls
-// this, and broadcasts the result.
+// this, and broadcasts the result; beyond kGatherUnits cells it builds the
+// bisection's tree together instead (cut_tree.hpp).
 // Trade-off: serial METIS on one process sees the whole graph (the best
 // partitions, deterministic with a fixed seed) but holds every occupied cell
 // (about 0.4 KB each with METIS's work arrays); ParMETIS is not in Debian.
@@ -57,6 +58,11 @@ struct Partition {
 };
 
 std::array<std::int64_t, 8> colour_work(const CellLoad& c);
+// A partition's balance from each part's work and each part's work by
+// colour (part * 8 + colour): the largest part's work over the mean, and the
+// sum over colours of the largest part's work over the sum of the means.
+void balance_of(const std::vector<std::int64_t>& work, const std::vector<std::int64_t>& by_colour, double& imbalance,
+                double& colour_imbalance);
 // Sorts `cells` by key and adds up duplicate keys (the same cell listed by
 // several processes).
 std::vector<CellLoad> merge_cells(std::vector<CellLoad> cells);
@@ -72,7 +78,7 @@ enum class Partitioner { Best, Metis, Bisection };
 Partition partition_cells(const std::vector<CellLoad>& cells, int parts, Balance balance = Balance::Colours,
                           Partitioner who = Partitioner::Best);
 // Recursive coordinate bisection of `units` (merged) into `parts` of equal
-// work, cut between pairs of cell layers (bisection.cpp); the owner of each unit.
+// work, cut between pairs of cell layers (cut_tree.hpp); the owner of each unit.
 std::vector<int> bisect_parts(const std::vector<CellLoad>& units, int parts);
 // Renumbers the parts of `p` (same cells, same cut) so that as much work as
 // possible stays on the process that holds it: held[r] are the cells process
@@ -81,5 +87,19 @@ std::vector<int> bisect_parts(const std::vector<CellLoad>& units, int parts);
 // Greedy by overlap (largest first; ties by part, then process), which is
 // deterministic and near the optimum when parts drift a little.
 void keep_owners(Partition& p, const std::vector<std::vector<CellLoad>>& held, int parts);
+// The work a process holds in a part, as keep_owners weighs it.
+struct Overlap {
+    std::int64_t work;
+    int part, process;
+};
+// keep_owners's choice from the overlaps (pairs listed more than once are
+// summed): the process that takes each part.
+std::vector<int> ranks_by_overlap(std::vector<Overlap> o, int parts);
+// Occupied cells (summed over processes) up to which the default
+// partitioner gathers them to the root to compare METIS's partition with the
+// bisection's (at about 0.4 KB a cell there, about 2 million catoms of a
+// prism); beyond, the processes cut the bisection's tree together
+// (cut_tree.hpp) and nothing the size of the scene is held anywhere.
+constexpr std::int64_t kGatherUnits = std::int64_t{1} << 18;
 
 }  // namespace parode::mpi

@@ -39,6 +39,32 @@ TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
     }
 }
 
+// The processes cutting the bisection's tree together (partitioner
+// "bisection"; by default beyond partition.hpp's kGatherUnits cells) keep no
+// map of cells: the same state hash as one process on 2 and 3 processes,
+// with repartitions made the same way and invariants (one owner per body,
+// each in its owner's cells, ghosts equal to owners) checked every step; the
+// prism's parts balanced as the root's bisection balances them.
+TEST_F(Mpi, TreeCutTogetherSameStateHash) {
+    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --steps 150 --collide grid"
+                               " --solver parallel -q --check-invariants 1 --set catoms.count=2000 --threads 1"
+                               " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
+    ASSERT_EQ(run(0, common + " --report " + path("one.json")).rc, 0);
+    for (int ranks : {2, 3}) {
+        const std::string name = "tree" + std::to_string(ranks) + ".json";
+        const Result r = run(ranks, common + " --set parallel.partitioner='\"bisection\"' --report " + path(name));
+        ASSERT_EQ(r.rc, 0) << r.err;
+        const nlohmann::json rep = report(name);
+        EXPECT_EQ(rep["state_hash"], report("one.json")["state_hash"]) << ranks << " ranks";
+        const nlohmann::json& par = rep["parallel"];
+        EXPECT_EQ(par["partition_made_by"], "every process");
+        EXPECT_EQ(par["cut_tree_nodes"].get<int>(), 2 * ranks - 1);
+        EXPECT_EQ(par["mapped_blocks"].get<int>(), 0);
+        EXPECT_GT(par["repartitions"].get<int>(), 0);
+        EXPECT_LT(par["partition_imbalance"].get<double>(), 1.01);
+    }
+}
+
 // A checkpoint written by 2 processes restarts on 1, 2 and 3 processes with
 // the hash of the uninterrupted run; each process builds the bodies it will
 // own from the checkpoint's positions, so none moves at setup.
