@@ -295,7 +295,7 @@ std::vector<SceneKey> build() {
          K("balance", "one of \"colours\", \"total\"").def("\"colours\"")
              .means("what the partition balances: each colour's work and the bodies, or each rank's total"),
          K("partitioner", "one of \"best\", \"metis\", \"bisection\"").def("\"best\"")
-             .means("who cuts the cells: the better balanced of METIS and coordinate bisection, or one of them"),
+             .means("who cuts the cells: the better balanced of METIS and coordinate bisection (past 2^18 cells: the bisection, by every rank together), or one of them"),
          boolean("overlap", true).means("relax a colour's interior cells while its boundary corrections travel")});
     add(out, "run",
         {str("collide").def("unset: \"grid\"").means("collision backend (checked when the run starts)"),
