@@ -192,6 +192,11 @@ TEST(ContactRows, SphereRowEffectiveMassesAreTheBlocks) {
     }
     double ad_n = 0, ad_t = 0;
     sphere_row_masses(row, B[0], B[1], SphereRowConstants{in.sor_w, cf}, ad_n, ad_t);
+    // What the build keeps is what the relaxation would compute, bit for bit.
+    EXPECT_EQ(row.ad_n, ad_n);
+    EXPECT_EQ(row.ad_t, ad_t);
+    EXPECT_EQ(row.kt, 1.0 / std::sqrt(row.n[2] * row.n[2] > 0.5 ? row.n[1] * row.n[1] + row.n[2] * row.n[2]
+                                                                   : row.n[0] * row.n[0] + row.n[1] * row.n[1]));
     const double ad[3] = {ad_n, ad_t, ad_t};
     for (int r = 0; r < 3; ++r) {
         const double block_ad = block.cfm[r] / cf;

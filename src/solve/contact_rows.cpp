@@ -66,8 +66,15 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     for (int i = 0; i < 3; ++i) K.n[i] = f.n[i];
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
-    // The effective masses are not stored: the relaxation computes them from
-    // the bodies' rows (sphere_row_masses).
+    K.kt = tangent_scale(K.n);
+    // The effective masses as the relaxation would compute them from the
+    // bodies' rows (a static partner's inverse mass and inertia are 0) and
+    // the step's constants (ContactSolver::row_constants): the same bits.
+    double erp_s = 0, cfm_s = 0;
+    substep_softness(in.erp, in.cfm, in.substeps, erp_s, cfm_s);
+    const double k1 = in.invi[0] * K.r1, k2 = in.invi[1] * K.r2;
+    effective_masses(in.invm[0] + in.invm[1], K.r1 * k1 + K.r2 * k2, SphereRowConstants{in.sor_w, cfm_s * in.fps}, K.ad_n,
+                     K.ad_t);
     double closing = dot3(f.n, in.vel[0]);
     if (two) closing -= dot3(f.n, in.vel[1]);
     double c[3], cfm[3];
@@ -78,7 +85,7 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
 
 void sphere_rhs(SphereRow& K, const double* tmp1, const double* tmp2, double c0, double fps) {
     double t1[3], t2[3];
-    tangent_frame(K.n, t1, t2);
+    tangent_frame(K.n, K.kt, t1, t2);
     const double* lin[3] = {K.n, t1, t2};
     const double ang[3][3] = {{0, 0, 0}, {-t2[0], -t2[1], -t2[2]}, {t1[0], t1[1], t1[2]}};
     const double c[3] = {c0, 0, 0};
@@ -182,7 +189,7 @@ void apply_impulses(const SphereRow& K, BodyRow* bodies) {
     BodyRow* B2 = K.b2 >= 0 ? &bodies[K.b2] : nullptr;
     const double l0 = K.lambda[0], l1 = K.lambda[1], l2 = K.lambda[2];
     double t1[3], t2[3], dl[3], da[3];
-    tangent_frame(K.n, t1, t2);
+    tangent_frame(K.n, K.kt, t1, t2);
     for (int i = 0; i < 3; ++i) {
         dl[i] = l0 * K.n[i] + (l1 * t1[i] + l2 * t2[i]);
         da[i] = l2 * t1[i] - l1 * t2[i];

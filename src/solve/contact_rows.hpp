@@ -4,21 +4,24 @@
 // normal row has no angular part and each friction row's angular part is the
 // lever length times (tangent x normal) = -t2 for t1 and t1 for t2. The row
 // keeps the normal (the tangents follow from it, tangent_frame), the two
-// lever lengths, friction coefficient, right-hand sides and impulses: 104
-// bytes, against 650 for the general Block, which keeps J and inv(M) J^T as
-// 3 x 12 doubles for any other contact. The effective masses (SOR factor
-// over J inv(M) J^T + CFM: one for the normal row, one for both friction
-// rows, whose J inv(M) J^T are equal for unit tangents) are recomputed at
-// each relaxation from the bodies' BodyRow (inverse mass and inverse inertia
-// beside the velocity corrections, one cache line a body, read anyway) and
-// the step's SphereRowConstants: the same operations on the same numbers as
-// the build's, so the same bits.
-// Trade-off: two code paths for one contact model, and the tangents and
-// effective masses recomputed at every relaxation (a square root and two
-// divisions per contact: the sweeps measured 2-4 % slower at 10^6, docs/performance/million-catoms.md)
-// for 24 bytes less per contact; the sphere path drops the rounding-level
-// angular terms the general Jacobian carries, so the two agree to rounding,
-// not bit for bit (test_contact_rows holds them together).
+// lever lengths, friction coefficient, right-hand sides and impulses, and
+// what the relaxation would otherwise recompute each time from these and the
+// bodies' rows (inverse mass and inverse inertia, beside the velocity
+// corrections in one BodyRow): the effective masses (SOR factor over
+// J inv(M) J^T + CFM: one for the normal row, one for both friction rows,
+// whose J inv(M) J^T are equal for unit tangents) and the tangent frame's
+// scale (one over a root). 128 bytes, two cache lines of the rows' 64-byte
+// aligned array, against 650 for the general Block, which keeps J and
+// inv(M) J^T as 3 x 12 doubles for any other contact. The build computes
+// them with the relaxation's own operations (effective_masses,
+// tangent_scale), so keeping them changed no bit.
+// Trade-off: two code paths for one contact model; 24 bytes more a contact
+// than recomputing them at every relaxation (a square root and three
+// divisions a contact: with the four-lane block loads the sweeps are bound by
+// their instructions, and these cost a fifth of them, docs/performance/million-catoms.md);
+// the sphere path drops the rounding-level angular terms the general Jacobian
+// carries, so the two agree to rounding, not bit for bit (test_contact_rows
+// holds them together).
 #pragma once
 #include <ode/ode.h>
 
@@ -39,18 +42,21 @@ struct alignas(64) BodyRow {
 };
 
 struct SphereRow {
-    std::int32_t b1, b2;  // body slots; b2 < 0: static
     double n[3];          // into body 1
     double r1, r2;        // lever lengths: contact point = x1 - r1 n = x2 + r2 n; r2 = 0 when static
     double rhs[3];        // target velocity terms, unscaled
     double lambda[3];
     double mu;            // friction rows clamped to +-mu lambda[0] (to 0 when mu = 0)
+    double ad_n, ad_t;    // effective masses of the normal and the friction rows
+    double kt;            // the tangent frame's scale (tangent_scale of n)
+    std::int32_t b1, b2;  // body slots; b2 < 0: static
 };
-static_assert(sizeof(SphereRow) == 104, "a sphere row is 13 doubles");
-// Four lanes read a row's 12 doubles as three blocks of four (n, r1 | r2, rhs |
-// lambda, mu) and write lambda and mu back as one block.
-static_assert(offsetof(SphereRow, n) == 8 && offsetof(SphereRow, r1) == 32 && offsetof(SphereRow, r2) == 40 &&
-                  offsetof(SphereRow, rhs) == 48 && offsetof(SphereRow, lambda) == 72 && offsetof(SphereRow, mu) == 96,
+static_assert(sizeof(SphereRow) == 128, "a sphere row is 15 doubles and two slots: two cache lines");
+// Four lanes read a row as four blocks of four (n, r1 | r2, rhs | lambda, mu |
+// ad_n, ad_t, kt, slots) and write lambda and mu back as one block.
+static_assert(offsetof(SphereRow, n) == 0 && offsetof(SphereRow, r1) == 24 && offsetof(SphereRow, r2) == 32 &&
+                  offsetof(SphereRow, rhs) == 40 && offsetof(SphereRow, lambda) == 64 && offsetof(SphereRow, mu) == 88 &&
+                  offsetof(SphereRow, ad_n) == 96 && offsetof(SphereRow, ad_t) == 104 && offsetof(SphereRow, kt) == 112,
               "a sphere row's doubles lie in the order the four-lane loads read them");
 
 // What every sphere row of a step shares: the SOR factor and CFM / dt (the
@@ -263,20 +269,37 @@ PARODE_LANE_INLINE void effective_masses(V m, V k, const SphereRowConstants& c, 
 
 // Unit tangents t1, t2 = n x t1 of a unit normal n, as ODE's dPlaneSpace
 // builds them (t1 in the y-z plane when |n_z| > sqrt(1/2), else in x-y), the
-// same bits whether a lane of V or a double.
+// same bits whether a lane of V or a double. The scale k = 1 / sqrt(a) of
+// the projection a they normalise comes from tangent_scale.
 template <class V>
-PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
+PARODE_LANE_INLINE auto tangent_plane(const V* n, V& a) {
+    using namespace detail;
+    const auto yz = abs(n[2]) > splat<V>(0.70710678118654752440);
+    a = yz ? n[1] * n[1] + n[2] * n[2] : n[0] * n[0] + n[1] * n[1];
+    return yz;
+}
+template <class V>
+PARODE_LANE_INLINE V tangent_scale(const V* n) {
+    V a;
+    tangent_plane(n, a);
+    return detail::splat<V>(1.0) / detail::root(a);
+}
+template <class V>
+PARODE_LANE_INLINE void tangent_frame(const V* n, V k, V* t1, V* t2) {
     using namespace detail;
     const V zero = splat<V>(0.0);
-    const auto yz = abs(n[2]) > splat<V>(0.70710678118654752440);
-    const V a = yz ? n[1] * n[1] + n[2] * n[2] : n[0] * n[0] + n[1] * n[1];
-    const V k = splat<V>(1.0) / root(a);
+    V a;
+    const auto yz = tangent_plane(n, a);
     t1[0] = yz ? zero : -n[1] * k;
     t1[1] = yz ? -n[2] * k : n[0] * k;
     t1[2] = yz ? n[1] * k : zero;
     t2[0] = yz ? a * k : -n[2] * t1[1];
     t2[1] = yz ? -n[0] * t1[2] : n[2] * t1[0];
     t2[2] = yz ? n[0] * t1[1] : a * k;
+}
+template <class V>
+PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
+    tangent_frame(n, tangent_scale(n), t1, t2);
 }
 
 // Four bodies' rows (fc[0..3] | fc[4], fc[5], invm, invi) read as two
@@ -333,7 +356,7 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         B1[l] = &bodies[K[l]->b1];
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
-    V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu;
+    V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu, ad_n, ad_t, kt;
     if constexpr (L == 4) {
         load_lanes4(B1, f1, m1, i1);
         load_lanes4(B2, f2, m2, i2);
@@ -344,6 +367,8 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
         load_blocks(K, offsetof(SphereRow, lambda), b);
         lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
+        load_blocks(K, offsetof(SphereRow, ad_n), b);
+        ad_n = b[0], ad_t = b[1], kt = b[2];  // b[3]: the slots' bits, unused
     } else {
         for (int i = 0; i < 6; ++i) {
             f1[i] = gather_lanes<V, L>([&](int l) { return B1[l]->fc[i]; });
@@ -354,17 +379,18 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         m1 = gather_lanes<V, L>([&](int l) { return B1[l]->invm; }), m2 = gather_lanes<V, L>([&](int l) { return B2[l]->invm; });
         i1 = gather_lanes<V, L>([&](int l) { return B1[l]->invi; }), i2 = gather_lanes<V, L>([&](int l) { return B2[l]->invi; });
         mu = gather_lanes<V, L>([&](int l) { return K[l]->mu; });
+        ad_n = gather_lanes<V, L>([&](int l) { return K[l]->ad_n; });
+        ad_t = gather_lanes<V, L>([&](int l) { return K[l]->ad_t; });
+        kt = gather_lanes<V, L>([&](int l) { return K[l]->kt; });
         for (int r = 0; r < 3; ++r) {
             rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
             lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
         }
     }
-    tangent_frame(n, t1, t2);
+    tangent_frame(n, kt, t1, t2);
     const V k1 = i1 * r1, k2 = i2 * r2;
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
     const V cfm = splat<V>(c.cfm);
-    V ad_n, ad_t;
-    effective_masses(m, k, c, ad_n, ad_t);
     V u[3], w[3];
     for (int i = 0; i < 3; ++i) {
         u[i] = f1[i] - f2[i];

@@ -365,8 +365,7 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
             }
             if (p + 4 * kAhead < end[s]) {
                 const char* row = reinterpret_cast<const char*>(&rows_[p + 4 * kAhead]);
-                for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);
-                __builtin_prefetch(row + sizeof(SphereRow) - 1, 1);  // rows straddle lines
+                for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);  // two whole lines
             }
             SphereRow& K = rows_[p];
             if (K.b1 < 0) {
