@@ -96,30 +96,21 @@ Comm::Comm() {
     }
 }
 
-void Comm::sum(std::int64_t* v, int n) const {
-    Clock c(stats_);
-    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+namespace {
+
+// Element-wise `op` of every process's v, in place, timed into `stats`.
+void allreduce(CommStats& stats, void* v, int n, MPI_Datatype type, MPI_Op op) {
+    Clock c(stats);
+    check(MPI_Allreduce(MPI_IN_PLACE, v, n, type, op, MPI_COMM_WORLD), "MPI_Allreduce");
 }
 
-void Comm::sum_wrapping(std::uint64_t* v, int n) const {
-    Clock c(stats_);
-    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
-}
+}  // namespace
 
-void Comm::max(double* v, int n) const {
-    Clock c(stats_);
-    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
-}
-
-void Comm::min(std::uint64_t* v, int n) const {
-    Clock c(stats_);
-    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "MPI_Allreduce");
-}
-
-void Comm::max(std::uint64_t* v, int n) const {
-    Clock c(stats_);
-    check(MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
-}
+void Comm::sum(std::int64_t* v, int n) const { allreduce(stats_, v, n, MPI_INT64_T, MPI_SUM); }
+void Comm::sum_wrapping(std::uint64_t* v, int n) const { allreduce(stats_, v, n, MPI_UINT64_T, MPI_SUM); }
+void Comm::max(double* v, int n) const { allreduce(stats_, v, n, MPI_DOUBLE, MPI_MAX); }
+void Comm::min(std::uint64_t* v, int n) const { allreduce(stats_, v, n, MPI_UINT64_T, MPI_MIN); }
+void Comm::max(std::uint64_t* v, int n) const { allreduce(stats_, v, n, MPI_UINT64_T, MPI_MAX); }
 
 std::vector<Bytes> Comm::all_gather(const Bytes& mine) const {
     Clock c(stats_);

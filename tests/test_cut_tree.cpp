@@ -17,6 +17,7 @@
 #include <random>
 #include <thread>
 
+#include "cell_keys.hpp"
 #include "cut_tree.hpp"
 #include "domain/cells.hpp"
 #include "partition.hpp"
@@ -26,10 +27,7 @@ using namespace parode::mpi;
 
 namespace {
 
-std::uint64_t key_of(int x, int y, int z) {
-    const std::uint64_t origin = CellSpace::neighbour(0, 0, 0, 0);
-    return CellSpace::neighbour(origin, x, y, z);
-}
+using parode::test::key_of;
 
 // The reference: sort the node's cells by (pairs of layers along the
 // longest axis, then along the other two, then coordinates) and cut at the

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <set>
 
+#include "cell_keys.hpp"
 #include "cell_map.hpp"
 #include "domain/cells.hpp"
 #include "partition.hpp"
@@ -20,10 +21,7 @@ using namespace parode::mpi;
 
 namespace {
 
-std::uint64_t key_of(int x, int y, int z) {
-    const std::uint64_t origin = CellSpace::neighbour(0, 0, 0, 0);
-    return CellSpace::neighbour(origin, x, y, z);
-}
+using parode::test::key_of;
 
 std::vector<CellLoad> lattice(int nx, int ny, int nz) {
     std::vector<CellLoad> cells;
