@@ -5,7 +5,9 @@ collapse, against the cost of the solve stage.
 
 - Ensemble bias: per configuration, the mean over seeds of the centre-of-mass
   height, horizontal spread, contacts per catom (the frames' contact count over
-  the catoms) at the end, and the kinetic energy at KE_TIMES, minus the mean
+  the catoms) and shape drift (the RMS change of the catoms' positions about
+  their centroid since the start: the settled shape of a magnetic prism) at
+  the end, and the kinetic energy at KE_TIMES, minus the mean
   of the converged reference ensemble on the same seeds; with its 95 %
   confidence interval (Welch's t, the two ensembles' standard errors). A bias
   is significant when the interval excludes 0.
@@ -57,8 +59,10 @@ def observables(path):
     n = (fr.shape[1] - HEADER) // 3
     pos = last[HEADER:].reshape(n, 3)
     c = pos[:, :2].mean(axis=0)
+    start = fr[0][HEADER:].reshape(n, 3)
+    moved = (pos - pos.mean(axis=0)) - (start - start.mean(axis=0))
     out = {"com_height": last[10], "spread": math.sqrt(((pos[:, :2] - c) ** 2).sum(axis=1).mean()),
-           "contacts_per_catom": last[13] / n}
+           "contacts_per_catom": last[13] / n, "shape_drift": math.sqrt((moved ** 2).sum(axis=1).mean())}
     times = fr[:, 1]
     for t in KE_TIMES:
         out[f"ke_{t:g}s"] = fr[int(np.argmin(abs(times - t))), 2]

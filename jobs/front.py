@@ -39,28 +39,12 @@ import os
 import subprocess
 import sys
 import time
+import tomllib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep import machine  # noqa: E402  (host, CPU, commit, binary hash)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DT = 0.005
-
-# name -> --set values, around the scene's defaults (dt 5 ms, 20 iterations).
-# Substeps with fewer than 3 iterations each (4 x 2, 8 x 1, 8 x 2: measured in
-# analysis/results/vm-amd-epyc-2c/front/) gain energy on a bounce; parode refuses them.
-CONFIGS = {
-    "default": [],
-    "it5": ["solver.iterations=5"],
-    "it10": ["solver.iterations=10"],
-    "it40": ["solver.iterations=40"],
-    "dt2.5ms": [f"scene.dt={DT / 2:g}"],
-    "dt2.5ms-it10": [f"scene.dt={DT / 2:g}", "solver.iterations=10"],
-    "sub2-it5": ["solver.substeps=2", "solver.iterations=5"],
-    "sub2-it10": ["solver.substeps=2", "solver.iterations=10"],
-    "sub4-it3": ["solver.substeps=4", "solver.iterations=3"],
-    "sub4-it5": ["solver.substeps=4", "solver.iterations=5"],
-}
 
 
 def same_spring(erp, cfm, s):
@@ -71,15 +55,57 @@ def same_spring(erp, cfm, s):
     return [f"solver.erp={a / (a + b)!r}", f"solver.cfm={cfm / (a + b)!r}"]
 
 
-ERP, CFM = 0.2, 1e-5  # tennis.toml
-# References: converged in dt and iterations with the scene's contact spring
-# (ERP and CFM converted to the shorter step), and, as the "converged" of
-# earlier studies, with the same ERP and CFM at dt / 4: a contact 4 x stiffer.
-CONVERGED = [f"scene.dt={DT / 4:g}", "solver.iterations=100"] + same_spring(ERP, CFM, 4)
-STIFF = [f"scene.dt={DT / 4:g}", "solver.iterations=100"]
-FINE = [f"scene.dt={DT / 8:g}", "solver.iterations=200"] + same_spring(ERP, CFM, 8)
-# 4 substeps with STIFF's contact: ERP 0.5 and CFM 6.25e-6 at dt are ERP 0.2 and CFM 1e-5 at dt / 4.
-CONFIGS["sub4-it3-stiff"] = ["solver.substeps=4", "solver.iterations=3", "solver.erp=0.5", "solver.cfm=6.25e-06"]
+class Plan:
+    """The configurations and references of one scene, from its file: around
+    its dt, iterations and contact (ERP, CFM). Substeps with fewer than 3
+    iterations each (4 x 2, 8 x 1, 8 x 2: measured in
+    analysis/results/vm-amd-epyc-2c/front/) gain energy on a bounce, and
+    substeps with magnets on pump energy into the lattice: parode refuses
+    both, so they are not configurations."""
+
+    def __init__(self, scene):
+        with open(scene, "rb") as f:
+            sc = tomllib.load(f)
+        self.dt = dt = sc["scene"]["dt"]
+        sv = sc.get("solver", {})
+        erp, cfm = sv.get("erp", 0.2), sv.get("cfm", 1e-5)
+        cat = sc.get("catoms", {})
+        self.radius, self.jitter = cat.get("radius", 0.5), cat.get("jitter", 0.01)
+        self.configs = {
+            "default": [],
+            "it5": ["solver.iterations=5"],
+            "it10": ["solver.iterations=10"],
+            "it40": ["solver.iterations=40"],
+            f"dt{1e3 * dt / 2:g}ms": [f"scene.dt={dt / 2:g}"],
+            f"dt{1e3 * dt / 2:g}ms-it10": [f"scene.dt={dt / 2:g}", "solver.iterations=10"],
+        }
+        if not sc.get("magnets", {}).get("enabled", False):
+            self.configs.update({
+                "sub2-it5": ["solver.substeps=2", "solver.iterations=5"],
+                "sub2-it10": ["solver.substeps=2", "solver.iterations=10"],
+                "sub4-it3": ["solver.substeps=4", "solver.iterations=3"],
+                "sub4-it5": ["solver.substeps=4", "solver.iterations=5"],
+                # 4 substeps with STIFF's contact: ERP and CFM at dt that are the scene's at dt / 4.
+                "sub4-it3-stiff": ["solver.substeps=4", "solver.iterations=3"] + stiffer(erp, cfm),
+            })
+        # References: converged in dt and iterations with the scene's contact
+        # spring (ERP and CFM converted to the shorter step), and, as the
+        # "converged" of earlier studies, with the same ERP and CFM at dt / 4:
+        # a contact 4 x stiffer.
+        self.converged = [f"scene.dt={dt / 4:g}", "solver.iterations=100"] + same_spring(erp, cfm, 4)
+        self.stiff = [f"scene.dt={dt / 4:g}", "solver.iterations=100"]
+        self.fine = [f"scene.dt={dt / 8:g}", "solver.iterations=200"] + same_spring(erp, cfm, 8)
+
+    def all(self):
+        return list(self.configs.items()) + [("converged", self.converged), ("stiff", self.stiff)]
+
+
+def stiffer(erp, cfm):
+    """The ERP and CFM at dt whose conversion to dt / 4 (same_spring) is `erp`
+    and `cfm` (tennis: ERP 0.5 and CFM 6.25e-6)."""
+    h_kp = 4 * erp / cfm  # dt kp of the spring that ERP and CFM make at dt / 4
+    kd = (1 - erp) / cfm
+    return [f"solver.erp={h_kp / (h_kp + kd)!r}", f"solver.cfm={1 / (h_kp + kd)!r}"]
 
 
 def parode_run(args, sets, report, extra=(), threads=1):
@@ -98,7 +124,7 @@ def ensembles(args):
     common = [f"catoms.count={args.count}"]
     length = ["--duration", str(args.duration)]
     for seed in range(1, args.seeds + 1):
-        for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED), ("stiff", STIFF)]:
+        for name, sets in args.plan.all():
             traj = os.path.join(args.traj, f"{name}.seed{seed}.traj")
             os.makedirs(args.traj, exist_ok=True)
             parode_run(args, common + sets + [f"scene.seed={seed}"],
@@ -109,11 +135,12 @@ def horizons(args):
     common = [f"catoms.count={args.count}", "scene.seed=1"]
     length = ["--duration", str(args.horizon)]
     fine = os.path.join(args.traj, "fine.traj")
-    parode_run(args, common + FINE, os.path.join(args.out, "horizon", "fine.json"), length + ["--trajectory", fine])
-    nudge = 0.01 * (1 + 2e-9 / 0.5)  # tennis: radius 0.5 m, jitter 1 % of it
-    parode_run(args, common + FINE + [f"catoms.jitter={nudge!r}"], os.path.join(args.out, "horizon", "fine-nudged.json"),
+    plan = args.plan
+    parode_run(args, common + plan.fine, os.path.join(args.out, "horizon", "fine.json"), length + ["--trajectory", fine])
+    nudge = plan.jitter * (1 + 2e-9 / plan.radius)  # every catom moves by less than 1e-9 m
+    parode_run(args, common + plan.fine + [f"catoms.jitter={nudge!r}"], os.path.join(args.out, "horizon", "fine-nudged.json"),
                length + ["--reference", fine])
-    for name, sets in list(CONFIGS.items()) + [("converged", CONVERGED), ("stiff", STIFF)]:
+    for name, sets in plan.all():
         parode_run(args, common + sets, os.path.join(args.out, "horizon", f"{name}.json"), length + ["--reference", fine])
 
 
@@ -124,7 +151,7 @@ def exact(args):
     import test_exact as te  # noqa: E402  (the tests' scenes and measurements)
     te.PARODE = args.parode
     configs = {"quickstep": ["--solver", "ode"]}
-    for name, sets in CONFIGS.items():
+    for name, sets in args.plan.configs.items():
         if any(s.startswith("scene.dt=") for s in sets):
             continue
         configs[name] = ["--solver", "parallel"] + [x for s in sets for x in ("--set", s)]
@@ -162,11 +189,12 @@ def costs(args):
         steps = max(3, int(2e6 // count))
         for r in range(1, args.repeats + 1):
             for threads in (1, 2):
-                for name, sets in CONFIGS.items():
+                for name, sets in args.plan.configs.items():
                     if args.cost_configs and name not in args.cost_configs:
                         continue
-                    dt = next((float(s.split("=")[1]) for s in sets if s.startswith("scene.dt=")), DT)
-                    n = int(round(steps * DT / dt))  # the same simulated time
+                    base = args.plan.dt
+                    dt = next((float(s.split("=")[1]) for s in sets if s.startswith("scene.dt=")), base)
+                    n = int(round(steps * base / dt))  # the same simulated time
                     report = os.path.join(args.out, "cost", f"{name}.n{count}.t{threads}.r{r}.json")
                     if os.path.exists(report) and not args.force:
                         continue
@@ -200,6 +228,7 @@ def main():
     ap.add_argument("--force", action="store_true")
     args = ap.parse_args()
     args.traj = args.traj or args.out.rstrip("/") + "-traj"
+    args.plan = Plan(args.scene)
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "machine.json"), "w") as f:
         json.dump(machine(args.parode), f, indent=1)
