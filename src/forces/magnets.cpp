@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "util/split_mix.hpp"
+
 namespace parode {
 namespace {
 
@@ -68,16 +70,50 @@ void MagnetField::prepare(const World& world) {
         cells_[k] = {cell_key(centre_[k]), world.gid(members_[k]), static_cast<std::uint32_t>(k)};
     }
     std::sort(cells_.begin(), cells_.end());
+    index_cells();
 }
 
+void MagnetField::index_cells() {
+    std::size_t runs = 0;
+    for (std::size_t i = 0; i < cells_.size(); ++i) runs += i == 0 || cells_[i].key != cells_[i - 1].key;
+    std::size_t size = 16;
+    while (size < 2 * runs) size *= 2;
+    index_.assign(size, Run{-1, 0, 0});
+    for (std::size_t i = 0; i < cells_.size();) {
+        std::size_t j = i;
+        while (j < cells_.size() && cells_[j].key == cells_[i].key) ++j;
+        std::size_t h = SplitMix64::mix(static_cast<std::uint64_t>(cells_[i].key)) & (size - 1);
+        while (index_[h].key != -1) h = (h + 1) & (size - 1);
+        index_[h] = {cells_[i].key, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j)};
+        i = j;
+    }
+}
+
+std::pair<std::uint32_t, std::uint32_t> MagnetField::run_of(std::int64_t key) const {
+    const std::size_t mask = index_.size() - 1;
+    for (std::size_t h = SplitMix64::mix(static_cast<std::uint64_t>(key)) & mask;; h = (h + 1) & mask) {
+        if (index_[h].key == key) return {index_[h].begin, index_[h].end};
+        if (index_[h].key == -1) return {0, 0};
+    }
+}
+
+// A pole of k farther than r_m + cutoff from m's centre is beyond the cutoff
+// of every pole of m (they lie on m's surface): its pairs, which the cutoff
+// test would all skip, are not looked at (the bound is widened by a part in
+// 10^9 against rounding, so no pair within the cutoff is left out and every
+// sum is the same).
 void MagnetField::add_pair(std::size_t k, std::size_t m, BodyWrench& w) const {
     const std::size_t np = model_.directions.size();
     const double rc2 = model_.cutoff * model_.cutoff;
     const double eps2 = model_.softening * model_.softening;
     const unsigned on_k = partial_ ? on_[k] : 0xFFu, on_m = partial_ ? on_[m] : 0xFFu;  // poles past 8: always on
+    const Vec3& om = centre_[m];
+    const double far2 = (radius_[m] + model_.cutoff) * (radius_[m] + model_.cutoff) * (1 + 1e-9);
     for (std::size_t a = 0; a < np; ++a) {
         if (a < 8 && !(on_k >> a & 1u)) continue;
         const Vec3& pa = poles_[k * np + a];
+        const double e[3] = {pa[0] - om[0], pa[1] - om[1], pa[2] - om[2]};
+        if (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] > far2) continue;
         for (std::size_t b = 0; b < np; ++b) {
             if (b < 8 && !(on_m >> b & 1u)) continue;
             const Vec3& pb = poles_[m * np + b];
@@ -97,26 +133,31 @@ void MagnetField::add_pair(std::size_t k, std::size_t m, BodyWrench& w) const {
     }
 }
 
+// The 27 cells around the body's, in the order (x, y, z) of their offsets (the
+// three along z of each (x, y) are consecutive keys: z is the key's low
+// field), each cell's bodies by global id.
 BodyWrench MagnetField::gather(std::size_t k) const {
     BodyWrench w;
     const Vec3& c = centre_[k];
     for (int dx = -1; dx <= 1; ++dx) {
         for (int dy = -1; dy <= 1; ++dy) {
-            for (int dz = -1; dz <= 1; ++dz) {
-                const Vec3 probe{c[0] + dx * cell_, c[1] + dy * cell_, c[2] + dz * cell_};
-                const std::int64_t key = cell_key(probe);
-                auto it = std::lower_bound(cells_.begin(), cells_.end(), CellEntry{key, 0, 0});
-                for (; it != cells_.end() && it->key == key; ++it) {
-                    const std::size_t m = it->member;
-                    if (m == k) continue;
-                    const Vec3& o = centre_[m];
-                    const double d2 = (c[0] - o[0]) * (c[0] - o[0]) + (c[1] - o[1]) * (c[1] - o[1]) + (c[2] - o[2]) * (c[2] - o[2]);
-                    if (d2 < reach2_) add_pair(k, m, w);
-                }
-            }
+            const double x = c[0] + dx * cell_, y = c[1] + dy * cell_;
+            const std::int64_t first = cell_key(Vec3{x, y, c[2] - cell_}), last = cell_key(Vec3{x, y, c[2] + cell_});
+            for (std::int64_t key = first; key <= last; ++key) visit(k, run_of(key), w);
         }
     }
     return w;
+}
+
+void MagnetField::visit(std::size_t k, std::pair<std::uint32_t, std::uint32_t> run, BodyWrench& w) const {
+    const Vec3& c = centre_[k];
+    for (std::uint32_t e = run.first; e < run.second; ++e) {
+        const std::size_t m = cells_[e].member;
+        if (m == k) continue;
+        const Vec3& o = centre_[m];
+        const double d2 = (c[0] - o[0]) * (c[0] - o[0]) + (c[1] - o[1]) * (c[1] - o[1]) + (c[2] - o[2]) * (c[2] - o[2]);
+        if (d2 < reach2_) add_pair(k, m, w);
+    }
 }
 
 void MagnetField::apply(World& world, const std::vector<BodyWrench>& wrenches) const {

@@ -11,6 +11,7 @@
 // write conflicts and thread-count-independent sums.
 #pragma once
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "forces/force_pass.hpp"
@@ -48,6 +49,11 @@ private:
         bool operator<(const CellEntry& o) const { return key != o.key ? key < o.key : gid < o.gid; }
     };
     std::int64_t cell_key(const Vec3& c) const;
+    // The run of cells_ in cell `key` (empty when none): a lookup in index_.
+    std::pair<std::uint32_t, std::uint32_t> run_of(std::int64_t key) const;
+    void index_cells();
+    // Adds to w the pairs of k with the bodies of one run of cells_.
+    void visit(std::size_t k, std::pair<std::uint32_t, std::uint32_t> run, BodyWrench& w) const;
     void add_pair(std::size_t k, std::size_t m, BodyWrench& w) const;
     void find_members(const World& world);
 
@@ -63,6 +69,14 @@ private:
     std::vector<Vec3> centre_;            // per member
     std::vector<Vec3> poles_;             // member-major, world frame
     std::vector<CellEntry> cells_;        // sorted by (cell key, gid)
+    // Open addressing from a cell key to its run of cells_ (key -1: a free
+    // slot), twice the occupied cells: one probe a cell where a binary
+    // search of cells_ took about 16 mispredicted steps.
+    struct Run {
+        std::int64_t key;
+        std::uint32_t begin, end;
+    };
+    std::vector<Run> index_;
     double cell_ = 1.0;
     double reach2_ = 1.0;  // max centre distance^2 for any pole pair to interact
 };
