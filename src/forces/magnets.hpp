@@ -5,8 +5,10 @@
 // Forces are *gathered per body*: each body sums the forces on its own poles from
 // its neighbours in a fixed order (cell key, then global id), so the sum depends
 // neither on which thread computes which body nor on how bodies are stored or
-// spread over processes. Neighbours come from a sorted cell list of centres;
-// ghost bodies are neighbours, only owned bodies get a wrench.
+// spread over processes. Neighbours come from a sorted cell list of centres,
+// each cell's run found through a hash index of the cell keys; a pole too far
+// from a neighbour's centre for any of its poles skips that neighbour's poles.
+// Ghost bodies are neighbours, only owned bodies get a wrench.
 // Trade-off: every pair is evaluated twice (once per body) in exchange for no
 // write conflicts and thread-count-independent sums.
 #pragma once
