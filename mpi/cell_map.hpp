@@ -37,8 +37,6 @@ public:
     void assign(std::vector<std::uint64_t> keys, std::vector<int> owners, int ranks, int edge = 1);
     // The partition as a tree of cuts, part p on rank rank_of[p].
     void assign(CutTree tree, std::vector<int> rank_of);
-    bool by_tree() const { return by_tree_; }
-    const CutTree& tree() const { return tree_; }
     int edge() const { return edge_; }
     int owner(std::uint64_t cell) const;
     // Sorted distinct ranks owning the cell and its 26 neighbours.

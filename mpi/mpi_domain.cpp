@@ -179,22 +179,19 @@ void MpiDomain::cut_together(const std::vector<CellLoad>& cells) {
     CommReductions reduce(comm_);
     CutTree tree = build_cut_tree(cells, ranks(), reduce);
     const auto np = static_cast<std::size_t>(ranks());
-    std::vector<std::int64_t> work(np * 9, 0);  // per part: its work by colour, then in all
+    std::vector<std::int64_t> work(np * 9, 0);  // each part's work by colour (part * 8 + colour), then in all
     std::map<int, std::int64_t> here;           // this process's work in each part
     for (const CellLoad& c : cells) {
-        const int part = tree.part(c.key);
+        const auto part = static_cast<std::size_t>(tree.part(c.key));
         const std::array<std::int64_t, 8> w = colour_work(c);
-        for (std::size_t k = 0; k < 8; ++k) work[static_cast<std::size_t>(part) * 9 + k] += w[k];
-        work[static_cast<std::size_t>(part) * 9 + 8] += c.work;
-        here[part] += c.work;
+        for (std::size_t k = 0; k < 8; ++k) work[part * 8 + k] += w[k];
+        work[np * 8 + part] += c.work;
+        here[static_cast<int>(part)] += c.work;
     }
-    comm_.sum(work.data(), static_cast<int>(work.size()));
-    std::vector<std::int64_t> total(np), by_colour(np * 8);
-    for (std::size_t r = 0; r < np; ++r) {
-        total[r] = work[r * 9 + 8];
-        for (std::size_t k = 0; k < 8; ++k) by_colour[r * 8 + k] = work[r * 9 + k];
-    }
-    balance_of(total, by_colour, partition_imbalance_, partition_colour_imbalance_);
+    comm_.sum(work.data(), static_cast<int>(work.size()));  // one reduction for both
+    const auto split = work.begin() + static_cast<std::ptrdiff_t>(np * 8);
+    balance_of(std::vector<std::int64_t>(split, work.end()), std::vector<std::int64_t>(work.begin(), split),
+               partition_imbalance_, partition_colour_imbalance_);
     Bytes mine;
     for (const auto& [part, w] : here) put(mine, Overlap{w, part, rank()});
     const auto all = comm_.gather(mine, 0);

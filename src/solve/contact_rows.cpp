@@ -67,14 +67,11 @@ void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K) 
     K.r1 = -dot3(f.c1, f.n);
     K.r2 = two ? dot3(f.c2, f.n) : 0.0;
     K.kt = tangent_scale(K.n);
-    // The effective masses as the relaxation would compute them from the
-    // bodies' rows (a static partner's inverse mass and inertia are 0) and
-    // the step's constants (ContactSolver::row_constants): the same bits.
+    // With the step's constants (ContactSolver::row_constants): the same bits.
     double erp_s = 0, cfm_s = 0;
     substep_softness(in.erp, in.cfm, in.substeps, erp_s, cfm_s);
-    const double k1 = in.invi[0] * K.r1, k2 = in.invi[1] * K.r2;
-    effective_masses(in.invm[0] + in.invm[1], K.r1 * k1 + K.r2 * k2, SphereRowConstants{in.sor_w, cfm_s * in.fps}, K.ad_n,
-                     K.ad_t);
+    sphere_row_masses(K, in.invm[0], in.invi[0], in.invm[1], in.invi[1], SphereRowConstants{in.sor_w, cfm_s * in.fps},
+                      K.ad_n, K.ad_t);
     double closing = dot3(f.n, in.vel[0]);
     if (two) closing -= dot3(f.n, in.vel[1]);
     double c[3], cfm[3];
@@ -176,9 +173,14 @@ void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& 
     relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
 }
 
+void sphere_row_masses(const SphereRow& K, double invm1, double invi1, double invm2, double invi2,
+                       const SphereRowConstants& c, double& ad_n, double& ad_t) {
+    effective_masses(invm1 + invm2, K.r1 * (invi1 * K.r1) + K.r2 * (invi2 * K.r2), c, ad_n, ad_t);
+}
+
 void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
                        double& ad_n, double& ad_t) {
-    effective_masses(B1.invm + B2.invm, K.r1 * (B1.invi * K.r1) + K.r2 * (B2.invi * K.r2), c, ad_n, ad_t);
+    sphere_row_masses(K, B1.invm, B1.invi, B2.invm, B2.invi, c, ad_n, ad_t);
 }
 
 bool four_lanes() { return use_four; }

@@ -132,7 +132,11 @@ inline double normal_target(double depth, const Kept& k, const RowInputs& in) {
 
 void build_sphere_row(const ContactFrame& f, const RowInputs& in, SphereRow& K);
 // The row's effective masses: SOR w / (J inv(M) J^T + cfm) of the normal row
-// and of the friction rows, as the relaxation computes them.
+// and of the friction rows, from its lever lengths and the two bodies'
+// inverse masses and inertias (0 for a static partner), as the build keeps
+// them for the relaxation; or from the bodies' rows.
+void sphere_row_masses(const SphereRow& K, double invm1, double invi1, double invm2, double invi2,
+                       const SphereRowConstants& c, double& ad_n, double& ad_t);
 void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2, const SphereRowConstants& c,
                        double& ad_n, double& ad_t);
 void build_block(const ContactFrame& f, const RowInputs& in, Block& K);
@@ -258,7 +262,7 @@ PARODE_LANE_INLINE V root(V v) {
 // The effective masses of a sphere row, SOR w / (J inv(M) J^T + cfm), from
 // m = invm1 + invm2 and k = r1 (invi1 r1) + r2 (invi2 r2): the same bits
 // as the build's sums (m2 and k2 are zero for a static partner, and x + 0 is
-// x). The relaxation and sphere_row_masses both compute them here.
+// x). The build (sphere_row_masses) computes them here.
 template <class V>
 PARODE_LANE_INLINE void effective_masses(V m, V k, const SphereRowConstants& c, V& ad_n, V& ad_t) {
     using detail::splat;
@@ -296,10 +300,6 @@ PARODE_LANE_INLINE void tangent_frame(const V* n, V k, V* t1, V* t2) {
     t2[0] = yz ? a * k : -n[2] * t1[1];
     t2[1] = yz ? -n[0] * t1[2] : n[2] * t1[0];
     t2[2] = yz ? n[0] * t1[1] : a * k;
-}
-template <class V>
-PARODE_LANE_INLINE void tangent_frame(const V* n, V* t1, V* t2) {
-    tangent_frame(n, tangent_scale(n), t1, t2);
 }
 
 // Four bodies' rows (fc[0..3] | fc[4], fc[5], invm, invi) read as two
