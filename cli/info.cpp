@@ -65,7 +65,7 @@ nlohmann::json memory_json(const Scene& sc, const InfoArgs& a, long steps) {
 }
 
 nlohmann::json cells_json(const CellStats& s) {
-    return {{"edge", s.edge}, {"r_max", s.r_max}, {"halo", s.edge}, {"occupied", s.occupied},
+    return {{"edge", s.edge}, {"r_max", s.r_max}, {"halo", s.halo}, {"occupied", s.occupied},
             {"bodies_per_cell", {{"mean", s.mean_bodies}, {"max", s.max_bodies}}}};
 }
 
@@ -77,7 +77,7 @@ nlohmann::json distributed_json(const CellCensus& census, const InfoArgs& a, con
                      {"ghosts_per_rank", {{"mean", g.ghosts_mean}, {"max", g.ghosts_max}}},
                      {"ghost_fraction", g.fraction},
                      {"method", "ideal planar cuts of the occupied cells' box into blocks of equal bodies (a lower bound: the "
-                                "partitions of the tennis prism made 1.07 to 1.7 times these ghosts)"}};
+                                "partitions of the tennis prism, 64,000 and 10^6 catoms on 2 and 4 ranks, made 1.05 to 1.10 times these ghosts)"}};
     return j;
 }
 
@@ -140,8 +140,8 @@ void print_memory_and_cells(std::ostream& os, const nlohmann::json& j) {
     os << "cells        edge " << num(c["edge"].get<double>()) << " m = 4 r_max (r_max " << num(c["r_max"].get<double>())
        << " m); " << c["occupied"] << " occupied at the start, " << num(c["bodies_per_cell"]["mean"].get<double>())
        << " bodies per cell (at most " << c["bodies_per_cell"]["max"] << ")\n";
-    os << "halo         one cell (" << num(c["halo"].get<double>()) << " m): a rank holds ghost copies of the bodies in "
-       << "the 26 cells around each of its own\n";
+    os << "halo         " << num(c["halo"].get<double>()) << " m (how far a body's contact, magnet and message partners "
+       << "lie): a rank holds ghost copies of the bodies that near its cells, along every axis\n";
 }
 
 void print_distributed(std::ostream& os, const nlohmann::json& j) {

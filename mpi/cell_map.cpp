@@ -19,7 +19,8 @@ void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, i
     tree_ = CutTree();
     rank_of_.clear();
     owner_cache_.clear();
-    holder_cache_.clear();
+    around_cache_.clear();
+    holder_lists_.clear();
 }
 
 void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
@@ -31,7 +32,8 @@ void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
     tree_ = std::move(tree);
     rank_of_ = std::move(rank_of);
     owner_cache_.clear();
-    holder_cache_.clear();
+    around_cache_.clear();
+    holder_lists_.clear();
 }
 
 int CellMap::mapped_owner(std::uint64_t key) const {
@@ -76,18 +78,23 @@ int CellMap::owner(std::uint64_t cell) const {
     return n;
 }
 
-const std::vector<int>& CellMap::holders(std::uint64_t key) const {
-    const auto it = holder_cache_.find(key);
-    if (it != holder_cache_.end()) return it->second;
+const std::vector<int>& CellMap::holders(std::uint64_t key, std::uint8_t sides) const {
+    auto it = around_cache_.find(key);
+    if (it == around_cache_.end()) {
+        std::array<int, 27> around{};
+        for (int j = 0; j < 27; ++j) around[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
+        it = around_cache_.emplace(key, around).first;
+    }
+    // Neighbour d of the cell is reached when every axis with d_a = -1 has
+    // its lower side in `sides` and every axis with d_a = +1 its upper one.
+    const auto reached = [sides](int d, int axis) { return d == 0 || ((sides >> (2 * axis + (d > 0 ? 1 : 0))) & 1); };
     std::vector<int> h;
-    for (int x = -1; x <= 1; ++x) {
-        for (int y = -1; y <= 1; ++y) {
-            for (int z = -1; z <= 1; ++z) h.push_back(owner(CellSpace::neighbour(key, x, y, z)));
-        }
+    for (int j = 0; j < 27; ++j) {
+        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second[static_cast<std::size_t>(j)]);
     }
     std::sort(h.begin(), h.end());
     h.erase(std::unique(h.begin(), h.end()), h.end());
-    return holder_cache_.emplace(key, std::move(h)).first->second;
+    return *holder_lists_.insert(std::move(h)).first;
 }
 
 }  // namespace parode::mpi

@@ -7,9 +7,13 @@
 // among equally near ones); past kReach blocks, to the rank given by a hash
 // of its key. So the owner of any cell is a pure function of the map, and
 // every process agrees on it without a message.
-// holders(key): the owners of the 27 cells around a cell; a body there is
-// owned by the owner of its cell and copied (a ghost) to every other holder,
-// which covers all contact and magnet partners (they lie in adjacent cells).
+// holders(key, sides): the owners of the cell and of those of its 26
+// neighbours a body there reaches (CellSpace::sides: the faces it lies
+// within reach of; all 27 cells with kAllSides); the body is owned by the
+// owner of its cell and copied (a ghost) to every other holder, which covers
+// all its contact, magnet and message partners. With the reach of contacts
+// alone (2 r_max, half a cell) a body reaches only the neighbours on the
+// nearer side of each axis: half the copies of whole neighbouring cells.
 // A partition the processes made together (cut_tree.hpp) is kept as its tree
 // of cuts instead (2 parts - 1 nodes) with the rank of each part: the owner
 // of any cell is then its part's rank, and no list of cells is kept at all.
@@ -17,10 +21,13 @@
 // block on every process, up to 64 times fewer than cells), which keeps
 // lookups local and deterministic; beyond the size the root partitions
 // (partition.hpp: kGatherUnits) the tree replaces it, whose lookups descend
-// log2(ranks) cuts. The holders of a cell are cached for the cells this
-// process meets: its own and its neighbours', a local size.
+// log2(ranks) cuts. The 27 owners around a cell are cached for the cells
+// this process meets (its own and its neighbours', a local size), and each
+// distinct list of holders is kept once.
 #pragma once
+#include <array>
 #include <cstdint>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -39,8 +46,9 @@ public:
     void assign(CutTree tree, std::vector<int> rank_of);
     int edge() const { return edge_; }
     int owner(std::uint64_t cell) const;
-    // Sorted distinct ranks owning the cell and its 26 neighbours.
-    const std::vector<int>& holders(std::uint64_t key) const;
+    // Sorted distinct ranks owning the cell and the neighbours on its
+    // `sides` (CellSpace::sides); the reference stays valid until assign.
+    const std::vector<int>& holders(std::uint64_t key, std::uint8_t sides) const;
     std::size_t mapped() const { return keys_.size(); }
     const std::vector<std::uint64_t>& keys() const { return keys_; }
     const std::vector<int>& owners() const { return owners_; }
@@ -57,7 +65,8 @@ private:
     CutTree tree_;
     std::vector<int> rank_of_;  // per part of tree_
     mutable std::unordered_map<std::uint64_t, int> owner_cache_;
-    mutable std::unordered_map<std::uint64_t, std::vector<int>> holder_cache_;
+    mutable std::unordered_map<std::uint64_t, std::array<int, 27>> around_cache_;
+    mutable std::set<std::vector<int>> holder_lists_;
 };
 
 }  // namespace parode::mpi

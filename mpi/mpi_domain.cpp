@@ -55,7 +55,8 @@ void sort_impulses(std::vector<WarmImpulse>& warm) { std::sort(warm.begin(), war
 
 }  // namespace
 
-MpiDomain::MpiDomain(const Scene& scene, const Execution& exec) : scene_(scene), loops_(exec.loops()), cells_(scene) {
+MpiDomain::MpiDomain(const Scene& scene, const Execution& exec)
+    : scene_(scene), loops_(exec.loops()), cells_(scene), reach_(halo_reach(scene)) {
     nbr_index_.assign(static_cast<std::size_t>(comm_.size()), -1);
 }
 
@@ -455,11 +456,14 @@ void MpiDomain::index_bodies(World& world) {
 const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     DomainSlot& s = world.slot(i);
     if (located(s)) return s;
-    const std::uint64_t key = cells_.key(dBodyGetPosition(world.body(i)));
-    if (s.cell == key && s.epoch == epoch_) return s;
+    const dReal* x = dBodyGetPosition(world.body(i));
+    const std::uint64_t key = cells_.key(x);
+    const std::uint8_t sides = cells_.sides(x, reach_);
+    if (s.cell == key && s.sides == sides && s.epoch == epoch_) return s;
     s.cell = key;
+    s.sides = sides;
     s.owner = map_.owner(key);
-    s.holders = &map_.holders(key);
+    s.holders = &map_.holders(key, sides);
     s.epoch = epoch_;
     return s;
 }
@@ -480,7 +484,8 @@ void MpiDomain::locate_all(World& world) {
     for_ranges(loops_, n, 4096, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) {
             DomainSlot& s = world.slot(i);
-            const bool current = s.epoch == epoch && s.cell == cells_.key(dBodyGetPosition(world.body(i)));
+            const dReal* x = dBodyGetPosition(world.body(i));
+            const bool current = s.epoch == epoch && s.cell == cells_.key(x) && s.sides == cells_.sides(x, reach_);
             if (current) s.stamp = stamp;
             moved[i] = !current;
         }

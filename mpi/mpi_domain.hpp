@@ -1,6 +1,7 @@
 // The distributed domain: every process owns the bodies whose centres lie in
 // its cells of the global cell grid (domain/cells.hpp) and holds ghost
-// copies of the bodies in the cells around its own. Cells, not bodies, are
+// copies of the bodies around its own cells that its bodies can reach (a
+// contact, a magnet or a program's message away: the halo). Cells, not bodies, are
 // partitioned (METIS, partition.hpp), and the contact solver's per-colour
 // exchange (CorrectionExchange) keeps every copy of a body in step, so a run
 // on any number of processes gives the state of a one-process run, bit for
@@ -132,6 +133,7 @@ private:
     Comm comm_;
     MpiCollectives collectives_{comm_};
     CellSpace cells_;
+    double reach_;  // how far a body's partners lie from its centre (halo_reach)
     CellMap map_;
     World* world_ = nullptr;
     std::uint32_t epoch_ = 0;                      // partitions made so far

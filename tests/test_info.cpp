@@ -61,7 +61,7 @@ TEST(Info, TennisSizesCellsAndStages) {
     EXPECT_EQ(r.j["geoms"], 1001);  // the bodies and the floor plane
     EXPECT_EQ(r.j["prism"], nlohmann::json({10, 10, 10}));
     EXPECT_NEAR(r.j["cells"]["edge"].get<double>(), 2.0, 1e-6);  // 4 r_max, r = 0.5
-    EXPECT_NEAR(r.j["cells"]["halo"].get<double>(), 2.0, 1e-6);
+    EXPECT_NEAR(r.j["cells"]["halo"].get<double>(), 1.0, 1e-6);  // 2 r_max: contacts alone
     // x, y: centres -4.5 .. 4.5 m -> cells -3 .. 2 (6); z: 0.5 .. 9.5 m -> cells 0 .. 4 (5).
     EXPECT_EQ(r.j["cells"]["occupied"], 6 * 6 * 5);
     EXPECT_EQ(r.j["cells"]["bodies_per_cell"]["max"], 8);
@@ -102,11 +102,13 @@ TEST(Info, DistributedPlanAndGhostEstimate) {
     EXPECT_TRUE(r.j["stages"]["forces"]["runs"].get<bool>());  // magnets
     EXPECT_FALSE(r.j["stages"]["joints"]["runs"].get<bool>());
     const auto& e = r.j["distributed"]["estimate"];
-    // Two halves of 3 x 6 x 5 cells: 500 bodies each, the other half's facing
-    // cell layer (one lattice plane pair, 2 x 10 x 10) as ghosts.
+    // Two halves of 3 x 6 x 5 cells: 500 bodies each; as ghosts, the other
+    // half's lattice planes within the halo's reach of the cut (2 r_max +
+    // cutoff = 1.25 m): the facing one at 0.5 m (10 x 10), not the next at 1.5.
+    EXPECT_DOUBLE_EQ(r.j["cells"]["halo"].get<double>(), 1.25);
     EXPECT_EQ(e["bodies_per_rank_max"].get<double>(), 500);
-    EXPECT_EQ(e["ghosts_per_rank"]["max"].get<double>(), 200);
-    EXPECT_DOUBLE_EQ(e["ghost_fraction"].get<double>(), 0.4);
+    EXPECT_EQ(e["ghosts_per_rank"]["max"].get<double>(), 100);
+    EXPECT_DOUBLE_EQ(e["ghost_fraction"].get<double>(), 0.2);
 }
 
 TEST(Info, JointsRefuseDistributionWithTheDomainsReason) {

@@ -3,7 +3,8 @@
 // boundary bodies than slicing by key; duplicate cells from several
 // processes merge; a repartition keeps parts on the processes holding them;
 // every cell, mapped or not, has exactly one owner that all
-// processes compute alike; a cell's holders are the owners around it.
+// processes compute alike; a cell's holders are the owners around it, and a
+// body's are those of the cells within its reach, no more.
 // Trade-off: small synthetic lattices (a few thousand cells) keep METIS fast;
 // the scenes' own partitions are tested through the distributed runs.
 #include <gtest/gtest.h>
@@ -15,6 +16,8 @@
 #include "cell_map.hpp"
 #include "domain/cells.hpp"
 #include "partition.hpp"
+#include "scene/scene_file.hpp"
+#include "util/split_mix.hpp"
 
 using namespace parode;
 using namespace parode::mpi;
@@ -183,18 +186,69 @@ TEST(CellMap, MappedAndNearestOwners) {
 
 TEST(CellMap, HoldersAreTheOwnersAround) {
     const CellMap m = two_halves();
-    EXPECT_EQ(m.holders(key_of(1, 1, 0)), (std::vector<int>{0}));
-    EXPECT_EQ(m.holders(key_of(4, 1, 0)), (std::vector<int>{0, 1}));
-    EXPECT_EQ(m.holders(key_of(5, 1, 0)), (std::vector<int>{0, 1}));
-    EXPECT_EQ(m.holders(key_of(7, 1, 0)), (std::vector<int>{1}));
+    EXPECT_EQ(m.holders(key_of(1, 1, 0), CellSpace::kAllSides), (std::vector<int>{0}));
+    EXPECT_EQ(m.holders(key_of(4, 1, 0), CellSpace::kAllSides), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(key_of(5, 1, 0), CellSpace::kAllSides), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(key_of(7, 1, 0), CellSpace::kAllSides), (std::vector<int>{1}));
     // Symmetry: if rank h holds a cell's bodies, the owner holds h's bodies next to it.
     for (int x = -2; x < 12; ++x) {
-        const std::vector<int>& h = m.holders(key_of(x, 0, 0));
+        const std::vector<int>& h = m.holders(key_of(x, 0, 0), CellSpace::kAllSides);
         EXPECT_TRUE(std::find(h.begin(), h.end(), m.owner(key_of(x, 0, 0))) != h.end());
     }
 }
 
 // Cells and blocks around (1000, 1000, 1000): no coordinate wraps.
+// A body's holders are the owners of every cell within its reach and of no
+// cell beyond it on some axis: on a lattice where each cell has its own rank,
+// random positions of the middle cell, for the reach of contacts alone (half
+// a cell) and of magnets (more than half). Red when the sides are ignored
+// (whole neighbouring cells) or the margin is dropped from the wrong side.
+TEST(CellMap, BodyHoldersAreTheCellsWithinItsReach) {
+    const Scene sc = load_scene_text("[scene]\nname = \"c\"\n[catoms]\ncount = 8\nradius = 0.25\n", "c");
+    const CellSpace cells(sc);
+    const double E = cells.edge();
+    std::vector<std::uint64_t> keys;
+    std::vector<int> owners;
+    for (const CellLoad& c : lattice(3, 3, 3)) keys.push_back(c.key);
+    for (std::size_t k = 0; k < keys.size(); ++k) owners.push_back(static_cast<int>(k));
+    CellMap m;
+    m.assign(keys, owners, static_cast<int>(keys.size()));
+    const double lo[3] = {(static_cast<double>(CellSpace::coord(key_of(1, 1, 1), 0)) - CellSpace::kBias) * E,
+                          (static_cast<double>(CellSpace::coord(key_of(1, 1, 1), 1)) - CellSpace::kBias) * E,
+                          (static_cast<double>(CellSpace::coord(key_of(1, 1, 1), 2)) - CellSpace::kBias) * E};
+    SplitMix64 rng(7);
+    for (const double reach : {0.5 * E / (1 + 1e-9), 0.7 * E}) {
+        std::size_t copies = 0;
+        for (int trial = 0; trial < 2000; ++trial) {
+            double x[3];
+            for (int a = 0; a < 3; ++a) x[a] = lo[a] + E * (0.001 + 0.998 * rng.uniform());
+            ASSERT_EQ(cells.key(x), key_of(1, 1, 1));
+            const std::vector<int>& h = m.holders(cells.key(x), cells.sides(x, reach));
+            copies += h.size();
+            for (int j = 0; j < 27; ++j) {
+                const int d[3] = {j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1};
+                double gap2 = 0, widest = 0;  // squared distance to the cell's box; its largest axis gap
+                for (int a = 0; a < 3; ++a) {
+                    const double f = (x[a] - lo[a]) / E;
+                    const double g = d[a] < 0 ? f * E : d[a] > 0 ? (1 - f) * E : 0.0;
+                    gap2 += g * g;
+                    widest = std::max(widest, g);
+                }
+                const std::uint64_t key = CellSpace::neighbour(key_of(1, 1, 1), d[0], d[1], d[2]);
+                const bool held = std::binary_search(h.begin(), h.end(), m.owner(key));
+                if (gap2 <= reach * reach) {
+                    EXPECT_TRUE(held) << "cell " << j << " within reach " << reach;
+                }
+                if (widest > reach + 1e-3 * E) {
+                    EXPECT_FALSE(held) << "cell " << j << " beyond reach " << reach;
+                }
+            }
+        }
+        // The copies a body makes: fewer than the 27 cells around it.
+        EXPECT_LT(copies, 2000u * (reach < 0.6 * E ? 9 : 16)) << reach;
+    }
+}
+
 std::uint64_t mid(int x, int y, int z) { return CellSpace::neighbour(key_of(0, 0, 0), 1000 + x, 1000 + y, 1000 + z); }
 
 // The root partitions cells up to 4 million of them (about 32 million
@@ -260,10 +314,10 @@ TEST(CellMap, BlocksOwnTheirCells) {
     EXPECT_EQ(m.owner(mid(3, 0, 1)), 0);
     EXPECT_EQ(m.owner(mid(4, 0, 0)), 1);
     EXPECT_EQ(m.owner(mid(9, 0, 0)), 1) << "the next block, empty: its nearest mapped block's owner";
-    EXPECT_EQ(m.holders(mid(1, 0, 0)), (std::vector<int>{0}));
-    EXPECT_EQ(m.holders(mid(3, 0, 0)), (std::vector<int>{0, 1}));
-    EXPECT_EQ(m.holders(mid(4, 1, 1)), (std::vector<int>{0, 1}));
-    EXPECT_EQ(m.holders(mid(6, 0, 0)), (std::vector<int>{1}));
+    EXPECT_EQ(m.holders(mid(1, 0, 0), CellSpace::kAllSides), (std::vector<int>{0}));
+    EXPECT_EQ(m.holders(mid(3, 0, 0), CellSpace::kAllSides), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(mid(4, 1, 1), CellSpace::kAllSides), (std::vector<int>{0, 1}));
+    EXPECT_EQ(m.holders(mid(6, 0, 0), CellSpace::kAllSides), (std::vector<int>{1}));
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "domain/cells.hpp"
+#include "domain/distribution.hpp"
 
 namespace parode {
 namespace {
@@ -46,7 +47,8 @@ void CellCensus::Axis::indices(std::int64_t c0, std::int64_t c1, std::int64_t& i
     i1 = first[static_cast<std::size_t>(c1 + 1)];
 }
 
-CellCensus::CellCensus(const Scene& scene) : scene_(scene), edge_(CellSpace(scene).edge()) {
+CellCensus::CellCensus(const Scene& scene)
+    : scene_(scene), edge_(CellSpace(scene).edge()), reach_(halo_reach(scene)) {
     box_.lo = {0, 0, 0};
     box_.hi = {-1, -1, -1};
     const CatomBlock& c = scene.catoms;
@@ -72,12 +74,16 @@ CellCensus::CellCensus(const Scene& scene) : scene_(scene), edge_(CellSpace(scen
 std::int64_t CellCensus::cell_of(double x) const { return static_cast<std::int64_t>(std::floor(x / edge_)); }
 
 // The lattice coordinates as CatomBlock::position computes them, less the jitter.
+double CellCensus::lattice_coord(int a, std::int64_t i) const {
+    const CatomBlock& c = scene_.catoms;
+    const double k = static_cast<double>(i);
+    if (a < 2) return c.base[a] + (k - 0.5 * static_cast<double>(c.dims[a] - 1)) * c.spacing;
+    return c.base[2] + c.proto.shape.radius + k * c.spacing;
+}
+
 CellCensus::Axis CellCensus::lattice_axis(int a) const {
     const CatomBlock& c = scene_.catoms;
-    auto coord = [&c, a](long i) {
-        if (a < 2) return c.base[a] + (i - 0.5 * (c.dims[a] - 1)) * c.spacing;
-        return c.base[2] + c.proto.shape.radius + i * c.spacing;
-    };
+    auto coord = [this, a](long i) { return lattice_coord(a, i); };
     Axis ax;
     ax.lo = cell_of(coord(0));
     for (long i = 0; i < c.dims[a]; ++i) {
@@ -92,10 +98,13 @@ CellCensus::Axis CellCensus::lattice_axis(int a) const {
 // full rows and the partial row of the top layer.
 std::uint64_t CellCensus::lattice_count(const Box& b) const {
     if (scene_.catoms.count == 0 || empty(b)) return 0;
-    std::int64_t i0, i1, j0, j1, k0, k1;
-    axes_[0].indices(b.lo[0], b.hi[0], i0, i1);
-    axes_[1].indices(b.lo[1], b.hi[1], j0, j1);
-    axes_[2].indices(b.lo[2], b.hi[2], k0, k1);
+    std::array<std::int64_t, 6> r;
+    for (int a = 0; a < 3; ++a) axes_[static_cast<std::size_t>(a)].indices(b.lo[a], b.hi[a], r[2 * a], r[2 * a + 1]);
+    return lattice_count(r);
+}
+
+std::uint64_t CellCensus::lattice_count(const std::array<std::int64_t, 6>& r) const {
+    const std::int64_t i0 = r[0], i1 = r[1], j0 = r[2], j1 = r[3], k0 = r[4], k1 = r[5];
     if (i1 <= i0 || j1 <= j0 || k1 <= k0) return 0;
     std::int64_t n = (i1 - i0) * (j1 - j0) * std::max<std::int64_t>(0, std::min(k1, full_layers_) - k0);
     if ((top_rows_ > 0 || top_rest_ > 0) && k0 <= full_layers_ && full_layers_ < k1) {
@@ -118,6 +127,7 @@ CellStats CellCensus::stats() const {
     CellStats s;
     s.edge = edge_;
     s.r_max = scene_.max_bounding_radius();
+    s.halo = reach_;
     if (scene_.catoms.count > 0) {
         Box lattice{{axes_[0].lo, axes_[1].lo, axes_[2].lo}, {}};
         for (int a = 0; a < 3; ++a) lattice.hi[a] = lattice.lo[a] + static_cast<std::int64_t>(axes_[a].first.size()) - 2;
@@ -137,6 +147,27 @@ CellStats CellCensus::stats() const {
     }
     s.mean_bodies = s.occupied ? static_cast<double>(scene_.body_count()) / static_cast<double>(s.occupied) : 0;
     return s;
+}
+
+// Lattice indices within `reach` (and the sides' margin, as CellSpace::sides
+// tests it) of cells [c0, c1]: from the first index at or past the lower
+// bound to the first at or past the upper (coordinates rise with the index).
+void CellCensus::reach_indices(int a, std::int64_t c0, std::int64_t c1, double reach, std::int64_t& i0,
+                               std::int64_t& i1) const {
+    const std::int64_t n = scene_.catoms.dims[a];
+    const double wide = reach + CellSpace::kSideMargin * edge_;
+    const double lo = static_cast<double>(c0) * edge_ - wide, hi = static_cast<double>(c1 + 1) * edge_ + wide;
+    const auto first_past = [&](double x) {
+        std::int64_t l = 0, h = n;
+        while (l < h) {
+            const std::int64_t m = l + (h - l) / 2;
+            if (lattice_coord(a, m) < x) l = m + 1;
+            else h = m;
+        }
+        return l;
+    };
+    i0 = first_past(lo);
+    i1 = first_past(hi);
 }
 
 // Recursive bisection: the longest axis of `b` is cut where the bodies on
@@ -182,13 +213,16 @@ GhostEstimate CellCensus::ghosts(int ranks) const {
     double total = 0;
     for (const Box& leaf : leaves) {
         if (empty(leaf)) continue;
-        Box halo = leaf;
+        Box halo = leaf;  // the [[bodies]]' halo: whole neighbouring cells
         for (int a = 0; a < 3; ++a) {
             --halo.lo[a];
             ++halo.hi[a];
         }
+        std::array<std::int64_t, 6> near{};  // the catoms': within the reach
+        for (int a = 0; a < 3; ++a) reach_indices(a, leaf.lo[a], leaf.hi[a], reach_, near[2 * a], near[2 * a + 1]);
         const double own = static_cast<double>(count(leaf));
-        const double ghosts = static_cast<double>(count(intersect(halo, box_))) - own;
+        const double listed = static_cast<double>(count(intersect(halo, box_)) - lattice_count(intersect(halo, box_)));
+        const double ghosts = static_cast<double>(scene_.catoms.count ? lattice_count(near) : 0) + listed - own;
         g.bodies_max = std::max(g.bodies_max, own);
         g.ghosts_max = std::max(g.ghosts_max, ghosts);
         total += ghosts;

@@ -1,5 +1,6 @@
-// The cells of a scene's initial state (domain/cells.hpp: edge 4 r_max, the
-// ghost halo of a distributed run is one cell) and the ghosts a partition of
+// The cells of a scene's initial state (domain/cells.hpp: edge 4 r_max; the
+// ghost halo of a distributed run holds the bodies within its reach of a
+// rank's cells, distribution.hpp: halo_reach) and the ghosts a partition of
 // them into ranks would make, counted without generating a body: the catom
 // prism is a lattice, so the catoms of a cell are products of per-axis
 // counts; the [[bodies]] are few and counted one by one. `parode info` uses it
@@ -8,8 +9,9 @@
 // never near a cell boundary in the prism scenes), and ghosts from a
 // recursive bisection of the cells' box into blocks of equal bodies (ideal
 // planar cuts) rather than METIS's cut of the cell graph: a lower bound of
-// the run report's `ghost_fraction` (METIS's cuts gave 1.3 to 1.9 times it
-// on the tennis prism, 1,000 to 64,000 catoms on 2 and 4 ranks).
+// the run report's `ghost_fraction`. The halo of the catoms is counted by
+// their lattice coordinates (the same per-axis reach test as the run's); that
+// of the [[bodies]], few, by whole neighbouring cells.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -23,6 +25,7 @@ namespace parode {
 struct CellStats {
     double edge = 0;               // 4 r_max
     double r_max = 0;              // largest bounding radius of any body
+    double halo = 0;               // the ghost halo's reach (halo_reach)
     std::uint64_t occupied = 0;    // cells holding a body at the start
     double mean_bodies = 0;        // bodies per occupied cell
     std::uint64_t max_bodies = 0;  // in the fullest cell
@@ -66,11 +69,17 @@ private:
     };
     Axis lattice_axis(int axis) const;
     std::uint64_t lattice_count(const Box& b) const;
+    // Catoms with lattice indices in [i0, i1) x [j0, j1) x [k0, k1).
+    std::uint64_t lattice_count(const std::array<std::int64_t, 6>& r) const;
+    // Lattice indices of the catoms within `reach` of cells [c0, c1] along an axis.
+    void reach_indices(int axis, std::int64_t c0, std::int64_t c1, double reach, std::int64_t& i0, std::int64_t& i1) const;
+    double lattice_coord(int axis, std::int64_t i) const;
     std::int64_t cell_of(double x) const;
     void split(const Box& b, int ranks, std::vector<Box>& leaves) const;
 
     const Scene& scene_;
     double edge_;
+    double reach_;  // the halo's (halo_reach)
     std::array<Axis, 3> axes_;
     std::int64_t full_layers_ = 0, top_rows_ = 0, top_rest_ = 0;  // the prism's partial top layer
     std::map<Cell, std::uint64_t> listed_;  // cells of the [[bodies]]

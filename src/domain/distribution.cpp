@@ -1,6 +1,8 @@
 // Distribution rules (see distribution.hpp).
 #include "domain/distribution.hpp"
 
+#include <algorithm>
+
 namespace parode {
 namespace {
 
@@ -35,6 +37,14 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
                       " m of its surface" + one);
     }
     return {};
+}
+
+double halo_reach(const Scene& sc) {
+    const double rmax = sc.max_bounding_radius();
+    double reach = 2 * rmax;
+    if (sc.any_magnets()) reach = std::max(reach, 2 * rmax + sc.magnets.cutoff);
+    if (sc.program.enabled) reach = std::max(reach, sc.program_range());
+    return reach;
 }
 
 std::string distributed_why(int ranks, double cell_edge) {

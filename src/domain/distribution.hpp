@@ -18,8 +18,14 @@ struct DistributionVerdict {
 };
 
 // The verdict for `scene` run with `solver` on `ranks` processes whose cells
-// have edge `cell_edge` (the ghost halo is one cell).
+// have edge `cell_edge` (the ghost halo reaches at most one cell).
 DistributionVerdict distribution_verdict(const Scene& scene, const std::string& solver, int ranks, double cell_edge);
+
+// How far from a body's centre its partners' centres can lie, the reach of
+// the ghost halo: 2 r_max for a contact, 2 r_max + cutoff for a magnet, a
+// program's range for a message. A rank holds a copy of every body within
+// this distance of its cells, per axis (CellSpace::sides).
+double halo_reach(const Scene& scene);
 
 // Why the migrate and exchange stages run on `ranks` processes.
 std::string distributed_why(int ranks, double cell_edge);
