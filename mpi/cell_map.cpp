@@ -78,23 +78,30 @@ int CellMap::owner(std::uint64_t cell) const {
     return n;
 }
 
+const std::vector<int>& CellMap::interned(std::vector<int> h) const {
+    std::sort(h.begin(), h.end());
+    h.erase(std::unique(h.begin(), h.end()), h.end());
+    return *holder_lists_.insert(std::move(h)).first;
+}
+
 const std::vector<int>& CellMap::holders(std::uint64_t key, std::uint8_t sides) const {
     auto it = around_cache_.find(key);
     if (it == around_cache_.end()) {
-        std::array<int, 27> around{};
-        for (int j = 0; j < 27; ++j) around[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
-        it = around_cache_.emplace(key, around).first;
+        Around a{};
+        for (int j = 0; j < 27; ++j) a.owner[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
+        const bool one = std::all_of(a.owner.begin(), a.owner.end(), [&a](int o) { return o == a.owner[0]; });
+        a.uniform = one ? &interned({a.owner[0]}) : nullptr;
+        it = around_cache_.emplace(key, a).first;
     }
+    if (it->second.uniform) return *it->second.uniform;  // most cells: no list to build
     // Neighbour d of the cell is reached when every axis with d_a = -1 has
     // its lower side in `sides` and every axis with d_a = +1 its upper one.
     const auto reached = [sides](int d, int axis) { return d == 0 || ((sides >> (2 * axis + (d > 0 ? 1 : 0))) & 1); };
     std::vector<int> h;
     for (int j = 0; j < 27; ++j) {
-        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second[static_cast<std::size_t>(j)]);
+        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second.owner[static_cast<std::size_t>(j)]);
     }
-    std::sort(h.begin(), h.end());
-    h.erase(std::unique(h.begin(), h.end()), h.end());
-    return *holder_lists_.insert(std::move(h)).first;
+    return interned(std::move(h));
 }
 
 }  // namespace parode::mpi
