@@ -7,7 +7,9 @@ with other seeds) and DIR/machine.json, and writes, per scene, into OUT
 (default results/analysis; `--out analysis/results` updates the committed
 ones) speed_error_<scene>.csv, a Markdown table .md and a plot .png.
 Cost: wall seconds per simulated second, the median of the runs, with their
-minimum and maximum (identical runs on a shared machine vary up to 3x).
+minimum and maximum, over the runs the sweep did not mark disturbed (other
+work on the cores before the run; `timed_runs` counts them, 0 where every
+run was disturbed and all are used).
 Error, per scene, the metric that stays meaningful:
 - tennis (a chaotic collapse): |centre-of-mass height error| + |spread error|
   at the end (m), the long-horizon observables of the pile;
@@ -90,12 +92,13 @@ def load_scene(scene_dir):
 def row(scene, name, runs):
     first = runs[0]
     e, s = first["error"], first["solver"]
-    costs = [r.get("steps_wall_s", r["wall_s"]) / (r["steps"] * r["dt"]) for r in runs]
+    quiet = [r for r in runs if not r.get("sweep", {}).get("disturbed", False)]  # timed on an idle machine
+    costs = [r.get("steps_wall_s", r["wall_s"]) / (r["steps"] * r["dt"]) for r in (quiet or runs)]
     errors = [scene_error(scene, r["error"]) for r in runs]
     o = e["observables"]
     return {"config": name, "dt": first["dt"], "solver": first["backends"]["solve"], "iterations": s["iterations"],
             "sor_w": s["sor_w"], "erp": s["erp"], "cfm": s["cfm"], "threads": first["threads"],
-            "collide": first["backends"]["collide"], "runs": len(runs),
+            "collide": first["backends"]["collide"], "runs": len(runs), "timed_runs": len(quiet),
             "cost_s_per_sim_s": statistics.median(costs), "cost_min": min(costs), "cost_max": max(costs),
             "error": statistics.median(errors), "error_spread": max(errors) - min(errors),
             "matched_frames": e["matched_frames"],
@@ -131,7 +134,7 @@ def write_tables(scene, rows, label, noise, out):
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    cols = ["config", "dt", "solver", "iterations", "sor_w", "erp", "cfm", "threads", "cost_s_per_sim_s",
+    cols = ["config", "dt", "solver", "iterations", "sor_w", "erp", "cfm", "threads", "timed_runs", "cost_s_per_sim_s",
             "cost_min", "cost_max", "error", "rms_0.05s", "escaped", "max_penetration", "energy_max_gain"]
     lines = [f"### {scene}: error = {label}", ""]
     if noise:
@@ -181,8 +184,11 @@ def label_front(ax, rows, front, floor):
 
 
 def caption(rows, front, noise, runs):
-    lines = [f"Bars: min to max cost of {runs} identical runs; on this shared machine identical runs vary "
-             "up to 3x in wall time, so only larger cost differences count."]
+    spread = max(r["cost_max"] / r["cost_min"] for r in rows if r["cost_min"] > 0)
+    timed = sum(r["timed_runs"] for r in rows)
+    lines = [f"Bars: min to max cost of the timed runs ({runs} identical runs each; {timed} of "
+             f"{sum(r['runs'] for r in rows)} started on an idle machine);",
+             f"identical runs varied up to {100 * (spread - 1):.0f} % in wall time, so only larger cost differences count."]
     top = max(noise, default=0.0)
     if top > 0:
         lines.append(f"Shaded: error noise floor, the reference run with {len(noise)} other seed(s) against "

@@ -141,7 +141,7 @@ void print_memory_and_cells(std::ostream& os, const nlohmann::json& j) {
        << " m); " << c["occupied"] << " occupied at the start, " << num(c["bodies_per_cell"]["mean"].get<double>())
        << " bodies per cell (at most " << c["bodies_per_cell"]["max"] << ")\n";
     os << "halo         " << num(c["halo"].get<double>()) << " m (how far a body's contact, magnet and message partners "
-       << "lie): a rank holds ghost copies of the bodies that near its cells, along every axis\n";
+       << "lie): a rank holds ghost copies of the bodies within it of its cells, along every axis\n";
 }
 
 void print_distributed(std::ostream& os, const nlohmann::json& j) {

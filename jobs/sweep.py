@@ -26,6 +26,10 @@ iteration count or build reruns the reference and everything compared with it.
 Trade-off: one-at-a-time variation (about 20 configurations per scene)
 instead of a full grid (hundreds), so that repeats fit a small machine;
 analysis/speed_error.py draws the front from whatever reports exist.
+Costs need an idle machine: before each run the cores busy with other work
+are measured for 0.5 s (/proc/stat) and a run started above --max-load is
+marked `disturbed` in its sweep block; the analysis times only the runs that
+are not (and says so where every run of a configuration was disturbed).
 
 Usage: python3 jobs/sweep.py [--out results/sweep] [--traj results/sweep-traj]
                              [--scenes tennis,buggy] [--count 1000] [--duration S]
@@ -40,6 +44,7 @@ import os
 import platform
 import subprocess
 import sys
+import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -134,9 +139,22 @@ def needed(args, report, key):
         return True
 
 
+def busy_cores(seconds=0.5):
+    """Cores busy with other work while this script waits (from /proc/stat)."""
+    def sample():
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return sum(v) - v[3] - v[4], sum(v)  # busy (all but idle and iowait), total
+    b0, t0 = sample()
+    time.sleep(seconds)
+    b1, t1 = sample()
+    return (b1 - b0) / max(t1 - t0, 1) * os.cpu_count()
+
+
 def run(args, scene_file, duration, sets, options, report, sweep):
     """One parode run; writes its report (or the failure) compactly with the sweep block."""
     args.done.add(sweep["key"])
+    load = busy_cores()
     timeout = args.timeout
     cmd = [args.parode, "run", scene_file, "--duration", f"{duration:g}", "-q", "--report", rel(report)]
     for s in sets:
@@ -148,7 +166,8 @@ def run(args, scene_file, duration, sets, options, report, sweep):
         r = json.load(open(report)) if p.returncode in (0, 5) else {"failed": p.stderr.strip(), "rc": p.returncode}
     except subprocess.TimeoutExpired:
         r = {"failed": f"timed out after {timeout} s"}
-    r["sweep"] = dict(sweep, sets=sets, options=options, host=args.machine["host"], date=args.machine["date"])
+    r["sweep"] = dict(sweep, sets=sets, options=options, host=args.machine["host"], date=args.machine["date"],
+                      busy_cores_before=round(load, 3), disturbed=load > args.max_load)
     with open(report, "w") as f:
         json.dump(r, f, separators=(",", ":"))
 
@@ -223,6 +242,8 @@ def main():
     ap.add_argument("--seeds", type=int, default=3, help="reference seeds (error noise floor); 1 = none")
     ap.add_argument("--parode", default=os.path.join(ROOT, "build", "ci", "parode"))
     ap.add_argument("--timeout", type=int, default=900)
+    ap.add_argument("--max-load", type=float, default=0.3,
+                    help="cores busy with other work before a run that mark it disturbed (default 0.3)")
     ap.add_argument("--force", action="store_true", help="rerun even where a report with the same key exists")
     args = ap.parse_args()
     scenes = args.scenes.split(",")
