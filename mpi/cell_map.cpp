@@ -19,6 +19,7 @@ void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, i
     tree_ = CutTree();
     rank_of_.clear();
     owner_cache_.clear();
+    interior_cache_.clear();
     around_cache_.clear();
     holder_lists_.clear();
 }
@@ -32,6 +33,7 @@ void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
     tree_ = std::move(tree);
     rank_of_ = std::move(rank_of);
     owner_cache_.clear();
+    interior_cache_.clear();
     around_cache_.clear();
     holder_lists_.clear();
 }
@@ -85,21 +87,23 @@ const std::vector<int>& CellMap::interned(std::vector<int> h) const {
 }
 
 const std::vector<int>& CellMap::holders(std::uint64_t key, std::uint8_t sides) const {
+    const auto in = interior_cache_.find(key);
+    if (in != interior_cache_.end()) return *in->second;  // most cells: no list to build
     auto it = around_cache_.find(key);
     if (it == around_cache_.end()) {
-        Around a{};
-        for (int j = 0; j < 27; ++j) a.owner[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
-        const bool one = std::all_of(a.owner.begin(), a.owner.end(), [&a](int o) { return o == a.owner[0]; });
-        a.uniform = one ? &interned({a.owner[0]}) : nullptr;
+        std::array<int, 27> a{};
+        for (int j = 0; j < 27; ++j) a[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
+        if (std::all_of(a.begin(), a.end(), [&a](int o) { return o == a[0]; })) {
+            return *interior_cache_.emplace(key, &interned({a[0]})).first->second;
+        }
         it = around_cache_.emplace(key, a).first;
     }
-    if (it->second.uniform) return *it->second.uniform;  // most cells: no list to build
     // Neighbour d of the cell is reached when every axis with d_a = -1 has
     // its lower side in `sides` and every axis with d_a = +1 its upper one.
     const auto reached = [sides](int d, int axis) { return d == 0 || ((sides >> (2 * axis + (d > 0 ? 1 : 0))) & 1); };
     std::vector<int> h;
     for (int j = 0; j < 27; ++j) {
-        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second.owner[static_cast<std::size_t>(j)]);
+        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second[static_cast<std::size_t>(j)]);
     }
     return interned(std::move(h));
 }

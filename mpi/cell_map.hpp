@@ -65,15 +65,12 @@ private:
     CutTree tree_;
     std::vector<int> rank_of_;  // per part of tree_
     mutable std::unordered_map<std::uint64_t, int> owner_cache_;
-    // The owners of the 27 cells around a cell, in (x, y, z) offset order,
-    // and the holders of all its bodies when one rank owns all 27 (an
-    // interior cell), else null.
-    struct Around {
-        std::array<int, 27> owner;
-        const std::vector<int>* uniform;
-    };
     const std::vector<int>& interned(std::vector<int> h) const;
-    mutable std::unordered_map<std::uint64_t, Around> around_cache_;
+    // Per cell met: the holders of all its bodies when one rank owns all 27
+    // cells around it (an interior cell, most of them: 8 bytes kept), else
+    // the 27 owners in (x, y, z) offset order.
+    mutable std::unordered_map<std::uint64_t, const std::vector<int>*> interior_cache_;
+    mutable std::unordered_map<std::uint64_t, std::array<int, 27>> around_cache_;
     mutable std::set<std::vector<int>> holder_lists_;
 };
 
