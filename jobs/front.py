@@ -38,11 +38,10 @@ import math
 import os
 import subprocess
 import sys
-import time
 import tomllib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from sweep import machine  # noqa: E402  (host, CPU, commit, binary hash)
+from sweep import busy_cores, machine  # noqa: E402  (the load before a run; host, CPU, commit, binary hash)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -170,18 +169,6 @@ def exact(args):
         print(name, row, flush=True)
     with open(os.path.join(args.out, "exact.json"), "w") as f:
         json.dump(out, f, indent=1)
-
-
-def busy_cores(seconds=0.5):
-    """Cores busy with other work while this script waits between runs (from /proc/stat)."""
-    def sample():
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-        return sum(v) - v[3] - v[4], sum(v)  # busy (all but idle and iowait), total
-    b0, t0 = sample()
-    time.sleep(seconds)
-    b1, t1 = sample()
-    return (b1 - b0) / max(t1 - t0, 1) * os.cpu_count()
 
 
 def costs(args):

@@ -22,8 +22,8 @@
 // lookups local and deterministic; beyond the size the root partitions
 // (partition.hpp: kGatherUnits) the tree replaces it, whose lookups descend
 // log2(ranks) cuts. The 27 owners around a cell are cached for the cells
-// this process meets (its own and its neighbours', a local size), and each
-// distinct list of holders is kept once.
+// this process meets (its own and its neighbours', a local size) where more
+// than one rank owns them, and each distinct list of holders is kept once.
 #pragma once
 #include <array>
 #include <cstdint>
