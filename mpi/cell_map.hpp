@@ -8,7 +8,7 @@
 // of its key. So the owner of any cell is a pure function of the map, and
 // every process agrees on it without a message.
 // holders(key, sides): the owners of the cell and of those of its 26
-// neighbours a body there reaches (CellSpace::sides: the faces it lies
+// neighbours a body there reaches (CellSpace::key with a reach: the faces it lies
 // within reach of; all 27 cells with kAllSides); the body is owned by the
 // owner of its cell and copied (a ghost) to every other holder, which covers
 // all its contact, magnet and message partners. With the reach of contacts
@@ -47,7 +47,7 @@ public:
     int edge() const { return edge_; }
     int owner(std::uint64_t cell) const;
     // Sorted distinct ranks owning the cell and the neighbours on its
-    // `sides` (CellSpace::sides); the reference stays valid until assign.
+    // `sides` (CellSpace::key with a reach); the reference stays valid until assign.
     const std::vector<int>& holders(std::uint64_t key, std::uint8_t sides) const;
     std::size_t mapped() const { return keys_.size(); }
     const std::vector<std::uint64_t>& keys() const { return keys_; }

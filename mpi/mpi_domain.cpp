@@ -457,8 +457,8 @@ const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
     DomainSlot& s = world.slot(i);
     if (located(s)) return s;
     const dReal* x = dBodyGetPosition(world.body(i));
-    const std::uint64_t key = cells_.key(x);
-    const std::uint8_t sides = cells_.sides(x, reach_);
+    std::uint8_t sides;
+    const std::uint64_t key = cells_.key(x, reach_, sides);
     if (s.cell == key && s.sides == sides && s.epoch == epoch_) return s;
     s.cell = key;
     s.sides = sides;
@@ -485,7 +485,8 @@ void MpiDomain::locate_all(World& world) {
         for (std::size_t i = i0; i < i1; ++i) {
             DomainSlot& s = world.slot(i);
             const dReal* x = dBodyGetPosition(world.body(i));
-            const bool current = s.epoch == epoch && s.cell == cells_.key(x) && s.sides == cells_.sides(x, reach_);
+            std::uint8_t sides;
+            const bool current = s.epoch == epoch && s.cell == cells_.key(x, reach_, sides) && s.sides == sides;
             if (current) s.stamp = stamp;
             moved[i] = !current;
         }

@@ -222,8 +222,11 @@ TEST(CellMap, BodyHoldersAreTheCellsWithinItsReach) {
         for (int trial = 0; trial < 2000; ++trial) {
             double x[3];
             for (int a = 0; a < 3; ++a) x[a] = lo[a] + E * (0.001 + 0.998 * rng.uniform());
-            ASSERT_EQ(cells.key(x), key_of(1, 1, 1));
-            const std::vector<int>& h = m.holders(cells.key(x), cells.sides(x, reach));
+            std::uint8_t sides;
+            const std::uint64_t here = cells.key(x, reach, sides);
+            ASSERT_EQ(here, key_of(1, 1, 1));
+            ASSERT_EQ(cells.key(x), here);  // the same floor as the key alone
+            const std::vector<int>& h = m.holders(here, sides);
             copies += h.size();
             for (int j = 0; j < 27; ++j) {
                 const int d[3] = {j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1};

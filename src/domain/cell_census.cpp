@@ -149,7 +149,7 @@ CellStats CellCensus::stats() const {
     return s;
 }
 
-// Lattice indices within `reach` (and the sides' margin, as CellSpace::sides
+// Lattice indices within `reach` (and the sides' margin, as CellSpace::key
 // tests it) of cells [c0, c1]: from the first index at or past the lower
 // bound to the first at or past the upper (coordinates rise with the index).
 void CellCensus::reach_indices(int a, std::int64_t c0, std::int64_t c1, double reach, std::int64_t& i0,

@@ -38,22 +38,25 @@ public:
         }
         return k;
     }
-    // Which neighbours of its cell a body at x may reach within `reach` (a
-    // contact, a magnet, a program's message), two bits per axis: bit 2a the
-    // lower neighbour along axis a (the body within reach of its cell's lower
-    // face), bit 2a + 1 the upper one. The fraction is taken from the same
-    // floor as key(), and the test widened by kSideMargin of an edge, so a
-    // partner no farther than `reach` is never on a side left out.
+    // The key of x's cell, and in `sides` which neighbours of that cell a body
+    // at x may reach within `reach` (a contact, a magnet, a program's
+    // message), two bits per axis: bit 2a the lower neighbour along axis a
+    // (the body within reach of its cell's lower face), bit 2a + 1 the upper
+    // one. Key and fraction come from one floor, and the test is widened by
+    // kSideMargin of an edge, so a partner no farther than `reach` is never
+    // on a side left out.
     static constexpr double kSideMargin = 1e-6;
-    std::uint8_t sides(const double x[3], double reach) const {
+    std::uint64_t key(const double x[3], double reach, std::uint8_t& sides) const {
         const double near = reach / edge_ + kSideMargin;
-        std::uint8_t s = 0;
+        std::uint64_t k = 0;
+        sides = 0;
         for (int a = 0; a < 3; ++a) {
-            const double t = x[a] / edge_, f = t - std::floor(t);
-            if (f < near) s = static_cast<std::uint8_t>(s | (1u << (2 * a)));
-            if (f > 1 - near) s = static_cast<std::uint8_t>(s | (2u << (2 * a)));
+            const double t = x[a] / edge_, cell = std::floor(t), f = t - cell;
+            k |= (static_cast<std::uint64_t>(static_cast<std::int64_t>(cell) + kBias) & kMask) << (kBits * a);
+            if (f < near) sides = static_cast<std::uint8_t>(sides | (1u << (2 * a)));
+            if (f > 1 - near) sides = static_cast<std::uint8_t>(sides | (2u << (2 * a)));
         }
-        return s;
+        return k;
     }
     static constexpr std::uint8_t kAllSides = 0x3f;
     static int colour(std::uint64_t key) {

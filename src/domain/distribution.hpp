@@ -24,7 +24,7 @@ DistributionVerdict distribution_verdict(const Scene& scene, const std::string& 
 // How far from a body's centre its partners' centres can lie, the reach of
 // the ghost halo: 2 r_max for a contact, 2 r_max + cutoff for a magnet, a
 // program's range for a message. A rank holds a copy of every body within
-// this distance of its cells, per axis (CellSpace::sides).
+// this distance of its cells, per axis (CellSpace::key with a reach).
 double halo_reach(const Scene& scene);
 
 // Why the migrate and exchange stages run on `ranks` processes.

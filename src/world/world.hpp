@@ -47,7 +47,7 @@ struct DomainSlot {
     std::uint64_t cell = ~0ULL;
     const std::vector<int>* holders = nullptr;  // the ranks holding a copy of the cell's bodies (the domain's)
     std::int32_t owner = -1;
-    std::uint8_t sides = 0;      // the neighbours of the cell its halo reaches (CellSpace::sides)
+    std::uint8_t sides = 0;      // the neighbours of the cell its halo reaches (CellSpace::key with a reach)
     std::uint32_t epoch = ~0u;   // the partition the entry belongs to
     std::uint32_t stamp = 0;     // the domain's pass that found it current (0: none)
 };
