@@ -355,8 +355,9 @@ void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, con
 // The owned bodies that other processes hold (or may: a migrant not located
 // this step), with their states, in body order: found in chunks on the
 // threads, since most owned bodies are held here alone and the scan reads
-// every one; the states are read only for the few that are not.
-std::vector<MpiDomain::Outgoing> MpiDomain::outgoing(const World& world) const {
+// every one; the states are read only for the few that are not. The chunks'
+// lists are returned as they are: joining them held every state twice.
+std::vector<std::vector<MpiDomain::Outgoing>> MpiDomain::outgoing(const World& world) const {
     const std::size_t n = world.body_count(), chunks = chunk_count(loops_, n, 4096);
     std::vector<std::vector<Outgoing>> part(chunks);
     const int me = rank();
@@ -371,26 +372,48 @@ std::vector<MpiDomain::Outgoing> MpiDomain::outgoing(const World& world) const {
             part[c].push_back({static_cast<std::uint32_t>(i), world.state(i)});
         }
     });
-    std::vector<Outgoing> all;
-    for (const std::vector<Outgoing>& p : part) all.insert(all.end(), p.begin(), p.end());
-    return all;
+    return part;
 }
 
 // Owners send every body to the other holders of its cell; receivers update
-// the ghosts they have, add new ones and drop those nobody sent.
+// the ghosts they have, add new ones and drop those nobody sent. Each
+// message is counted before it is written, so that it takes the bytes it
+// needs and no more (appending grew them up to twice that: at the step's
+// peak of memory, a sizeable share of a ghost's cost).
 void MpiDomain::exchange_states(World& world) {
     world_ = &world;
+    const auto parts = outgoing(world);
+    std::map<int, std::size_t> count;
+    for (const auto& part : parts) {
+        for (const Outgoing& o : part) {
+            for (int h : holders(place(world, o.local))) count[h] += h == rank() ? 0 : 1;
+        }
+    }
     std::map<int, Bytes> out;
     std::map<int, std::vector<std::uint32_t>> sent;
-    for (const Outgoing& o : outgoing(world)) {
-        for (int h : holders(place(world, o.local))) {
-            if (h == rank()) continue;
-            put(out[h], world.gid(o.local));
-            put(out[h], o.state);
-            sent[h].push_back(world.gid(o.local));
+    for (const auto& [h, n] : count) {
+        if (n == 0) continue;
+        out[h].reserve(n * (sizeof(std::uint32_t) + sizeof(BodyState)));
+        sent[h].reserve(n);
+    }
+    for (const auto& part : parts) {
+        for (const Outgoing& o : part) {
+            for (int h : holders(place(world, o.local))) {
+                if (h == rank()) continue;
+                put(out[h], world.gid(o.local));
+                put(out[h], o.state);
+                sent[h].push_back(world.gid(o.local));
+            }
         }
     }
     const auto in = comm_.sparse_exchange(out, kTagGhost);
+    std::size_t arriving = 0;  // new ghosts: room for them in one step
+    for (const auto& [from, b] : in) {
+        for (std::size_t at = 0; at < b.size(); at += sizeof(BodyState)) {  // take moves past the gid
+            arriving += world.local_of(take<std::uint32_t>(b, at)) == IdMap::kNone ? 1 : 0;
+        }
+    }
+    world.reserve_bodies(world.body_count() + arriving);
     std::vector<std::uint8_t> seen(world.body_count(), 0);
     std::map<int, std::vector<std::uint32_t>> received;
     for (const auto& [from, b] : in) {

@@ -117,7 +117,8 @@ private:
         std::uint32_t local;
         BodyState state;
     };
-    std::vector<Outgoing> outgoing(const World& world) const;
+    // Per chunk of bodies, in body order (chunk by chunk).
+    std::vector<std::vector<Outgoing>> outgoing(const World& world) const;
     // A new stamp (never 0): the entries of the last pass stop being located.
     void next_stamp() {
         if (++stamp_ == 0) stamp_ = 1;

@@ -6,6 +6,9 @@
 // Deferred moves: while World::defer_moves holds the marks back, ODE's spaces
 // learn of written poses only at sync_moves, and then every sphere's AABB
 // (ODE's own, through dGeomGetAABB) is where its body is.
+// Room for ghosts: a rank's world keeps room for an eighth more bodies than
+// it starts with, and reserve_bodies for what an exchange brings, so that
+// ghosts arriving one at a time never copy the per-body arrays.
 // Trade-off: compares bytes, not values, so that a mass rebuilt by other
 // arithmetic (one rounding apart) fails too.
 #include <gtest/gtest.h>
@@ -42,6 +45,26 @@ TEST(World, MassOfIsTheMassOdeHolds) {
     ASSERT_EQ(rank.body_count(), 3u);
     EXPECT_EQ(mass_mismatches(rank), 0);
     EXPECT_EQ(rank.mass_of(14).mass, 0.3);
+}
+
+TEST(World, GhostsArriveWithoutCopyingTheBodyArrays) {
+    const Scene tennis = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    std::vector<std::uint32_t> part(800);
+    for (std::uint32_t i = 0; i < 800; ++i) part[i] = i;  // a rank's 800 bodies; 100 ghosts come
+    World rank(tennis, SpaceKind::Simple, &part);
+    const dBodyID* bodies = rank.bodies().data();
+    const std::uint32_t* gids = rank.gids().data();
+    for (std::uint32_t g = 800; g < 900; ++g) rank.add_body(g, true);
+    EXPECT_EQ(rank.bodies().data(), bodies);
+    EXPECT_EQ(rank.gids().data(), gids);
+    // An exchange that brings more than the room makes room once, for all of them.
+    rank.reserve_bodies(1000);
+    bodies = rank.bodies().data();
+    gids = rank.gids().data();
+    for (std::uint32_t g = 900; g < 1000; ++g) rank.add_body(g, true);
+    EXPECT_EQ(rank.bodies().data(), bodies);
+    EXPECT_EQ(rank.gids().data(), gids);
+    EXPECT_EQ(mass_mismatches(rank), 0);
 }
 
 // Bodies whose geom's AABB, as ODE gives it, is not their position +- radius.

@@ -87,7 +87,7 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     if (!s.auto_disable) dWorldSetAutoDisableAverageSamplesCount(world_, 0);
     const std::size_t n = gids ? gids->size() : global_;
     map_.reset(global_, n);
-    bodies_.reserve(n);
+    reserve_bodies(n);
     for (const BodySpec& b : scene.bodies) body_mass_.push_back(mass_for(b));
     catom_mass_ = mass_for(scene.catoms.proto);
     build_statics();
@@ -111,6 +111,18 @@ dGeomID World::make_geom(const Shape& s) {
         case ShapeKind::Cylinder: break;
     }
     return dCreateCylinder(space_, s.radius, s.length);
+}
+
+void World::reserve_bodies(std::size_t n) {
+    if (n <= bodies_.capacity()) return;
+    n += n / 8;
+    bodies_.reserve(n);
+    gids_.reserve(n);
+    ghost_.reserve(n);
+    q_in_.reserve(n);
+    origin_.reserve(n);
+    slot_.reserve(n);
+    geoms_.reserve(n + (geoms_.size() - bodies_.size()));  // the statics follow the bodies
 }
 
 std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* state, const Vec3* origin) {

@@ -135,6 +135,10 @@ public:
     enum class GeomShape { Sphere, Box, Capsule, Cylinder, Plane };
     GeomShape geom_shape(std::uint32_t geom_id) const;
 
+    // Room for `n` bodies in every per-body array, with an eighth more for
+    // the ghosts and migrants that come later: arrays grown one body at a
+    // time double, and while one is copied both copies are resident.
+    void reserve_bodies(std::size_t n);
     // A new body `gid` built from the scene (its initial state unless `state`
     // is given); returns its local index.
     std::size_t add_body(std::uint32_t gid, bool ghost, const BodyState* state = nullptr, const Vec3* origin = nullptr);

@@ -1,0 +1,87 @@
+// IdMap against std::map on the same random sequence of sets, updates and
+// erasures: the dense table and the open-addressing hash give every lookup
+// the reference gives, through growth and through erasures that shift runs
+// back (ids chosen to collide in few slots, so runs are long and wrap around
+// the table's end); and which form a share of the ids gets.
+// Trade-off: a fixed seed and sizes of a few thousand ids: every branch of
+// the shifting is taken many times, in milliseconds.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "util/id_map.hpp"
+
+using namespace parode;
+
+namespace {
+
+// Random operations on ids ids[0..n) (ids[i] = i without a list), checked
+// after every one.
+void churn(IdMap& m, std::uint32_t range, int ops, const std::vector<std::uint32_t>* ids = nullptr,
+           unsigned seed = 12345) {
+    std::map<std::uint32_t, std::uint32_t> ref;
+    std::mt19937 rng(seed);
+    const auto pick = [&](std::uint32_t r) { return ids ? (*ids)[r] : r; };
+    for (int op = 0; op < ops; ++op) {
+        const std::uint32_t id = pick(rng() % range);
+        if (rng() % 3 == 0) {
+            m.erase(id);
+            ref.erase(id);
+        } else {
+            const std::uint32_t local = rng() % 1000000;
+            m.set(id, local);
+            ref[id] = local;
+        }
+        const std::uint32_t probe = pick(rng() % range);
+        const auto it = ref.find(probe);
+        ASSERT_EQ(m.find(probe), it == ref.end() ? IdMap::kNone : it->second) << "op " << op << " id " << probe;
+    }
+    for (std::uint32_t r = 0; r < range; ++r) {
+        const std::uint32_t id = pick(r);
+        const auto it = ref.find(id);
+        ASSERT_EQ(m.find(id), it == ref.end() ? IdMap::kNone : it->second) << "id " << id;
+    }
+}
+
+TEST(IdMap, DenseForMostOfTheRangeHashForAShare) {
+    IdMap whole, half, eighth;
+    whole.reset(100000, 100000);
+    half.reset(100000, 50000);
+    eighth.reset(800000, 100000);
+    EXPECT_TRUE(whole.dense());
+    EXPECT_TRUE(half.dense());
+    EXPECT_FALSE(eighth.dense());
+}
+
+TEST(IdMap, DenseTableAgreesWithAMap) {
+    IdMap m;
+    m.reset(3000, 3000);
+    ASSERT_TRUE(m.dense());
+    churn(m, 3000, 20000);
+}
+
+TEST(IdMap, HashAgreesWithAMapThroughGrowthAndErasures) {
+    IdMap m;
+    m.reset(1u << 30, 16);  // starts small: grows many times
+    ASSERT_FALSE(m.dense());
+    churn(m, 5000, 40000);
+}
+
+TEST(IdMap, HashRunsThatWrapAroundShiftBack) {
+    // 16 slots, 7 ids of a wide range: over 400 such sets, runs that wrap
+    // past the last slot form and are shifted back many times.
+    std::mt19937 rng(7);
+    for (unsigned set = 0; set < 400; ++set) {
+        std::vector<std::uint32_t> ids(7);
+        for (std::uint32_t& id : ids) id = rng() % (1u << 31);
+        IdMap m;
+        m.reset(1u << 31, 4);
+        ASSERT_FALSE(m.dense());
+        churn(m, 7, 200, &ids, set);
+    }
+}
+
+}  // namespace
