@@ -59,6 +59,7 @@ void MagnetField::prepare(const World& world) {
     if (world.generation() != generation_ || world.magnet_version() != magnet_version_) find_members(world);
     const std::size_t np = model_.directions.size();
     for (std::size_t k = 0; k < members_.size(); ++k) {
+        if (k + kRecordAhead < members_.size()) world.prefetch_body(members_[k + kRecordAhead]);
         dBodyID b = world.body(members_[k]);
         const dReal* p = dBodyGetPosition(b);
         const dReal* R = dBodyGetRotation(b);

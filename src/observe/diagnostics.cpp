@@ -121,6 +121,7 @@ BodyPart observe_bodies(const World& world, std::size_t i0, std::size_t i1, cons
     BodyPart part;
     DigestSum digests;
     for (std::size_t i = i0; i < i1; ++i) {
+        if (i + kRecordAhead < i1) world.prefetch_body(i + kRecordAhead);
         if (world.ghost(i)) continue;
         dBodyID b = world.body(i);
         digest_record(world, i, digests.next());

@@ -286,7 +286,10 @@ void ContactSolver::build_phase() {
     invI_.resize(all_spheres_ ? 0 : nb);
     all_rows_ = only_sphere_rows();
     for_ranges(loops(), nb, kGrain, [&](std::size_t i0, std::size_t i1) {
-        for (std::size_t i = i0; i < i1; ++i) prepare_body(i);
+        for (std::size_t i = i0; i < i1; ++i) {
+            if (i + kRecordAhead < i1) world_->prefetch_body(i + kRecordAhead);
+            prepare_body(i);
+        }
     });
     classify_and_match();
     std::uint32_t general = 0;  // general blocks in canonical order (rare: a serial count)
@@ -576,6 +579,7 @@ void ContactSolver::integrate_phase(World& world) {
         const std::size_t end = chunk_begin(nb, chunks, c + 1);
         for (std::size_t i = chunk_begin(nb, chunks, c); i < end; ++i) {
             if (i + kPrefetchAhead < end) __builtin_prefetch(&hot_[layout_.slot()[i + kPrefetchAhead]]);
+            if (i + kRecordAhead < end) world.prefetch_body(i + kRecordAhead);
             ok &= integrate_body(world, i, top);
         }
         finite[c] = ok;

@@ -92,6 +92,7 @@ World::World(const Scene& scene, SpaceKind space_kind, const std::vector<std::ui
     catom_mass_ = mass_for(scene.catoms.proto);
     build_statics();
     for (std::size_t i = 0; i < n; ++i) add_body(gids ? (*gids)[i] : static_cast<std::uint32_t>(i), false);
+    learn_record_lines();
     describe_spheres();
     build_joints();
     build_surfaces();
@@ -111,6 +112,29 @@ dGeomID World::make_geom(const Shape& s) {
         case ShapeKind::Cylinder: break;
     }
     return dCreateCylinder(space_, s.radius, s.length);
+}
+
+// The byte range of a body's record that dBodyGet{Position,Rotation,
+// Quaternion,LinearVel,AngularVel,Force,Torque} point into, from one body
+// made for the purpose (every record has the same layout): an address every
+// 64 bytes from its first byte, and its last byte, so that every line it
+// covers is fetched wherever the record starts.
+void World::learn_record_lines() {
+    dBodyID b = dBodyCreate(world_);
+    const char* base = reinterpret_cast<const char*>(b);
+    const dReal* parts[7] = {dBodyGetPosition(b),   dBodyGetRotation(b), dBodyGetQuaternion(b), dBodyGetLinearVel(b),
+                             dBodyGetAngularVel(b), dBodyGetForce(b),    dBodyGetTorque(b)};
+    const std::ptrdiff_t sizes[7] = {3, 12, 4, 3, 3, 3, 3};
+    std::ptrdiff_t lo = PTRDIFF_MAX, hi = 0;
+    for (int p = 0; p < 7; ++p) {
+        const std::ptrdiff_t at = reinterpret_cast<const char*>(parts[p]) - base;
+        lo = std::min(lo, at);
+        hi = std::max(hi, at + sizes[p] * static_cast<std::ptrdiff_t>(sizeof(dReal)) - 1);
+    }
+    dBodyDestroy(b);
+    record_lines_ = 0;
+    for (std::ptrdiff_t at = lo; at <= hi && record_lines_ < 7; at += 64) record_line_[record_lines_++] = at;
+    record_line_[record_lines_++] = hi;
 }
 
 void World::reserve_bodies(std::size_t n) {
