@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <stdexcept>
 
@@ -118,7 +119,9 @@ dGeomID World::make_geom(const Shape& s) {
 // Quaternion,LinearVel,AngularVel,Force,Torque} point into, from one body
 // made for the purpose (every record has the same layout): an address every
 // 64 bytes from its first byte, and its last byte, so that every line it
-// covers is fetched wherever the record starts.
+// covers is fetched wherever the record starts; and the byte of its flags
+// (dBodyGetGravityMode reads them), found as the one byte that turning
+// gravity off changes among the record's first 64.
 void World::learn_record_lines() {
     dBodyID b = dBodyCreate(world_);
     const char* base = reinterpret_cast<const char*>(b);
@@ -131,8 +134,14 @@ void World::learn_record_lines() {
         lo = std::min(lo, at);
         hi = std::max(hi, at + sizes[p] * static_cast<std::ptrdiff_t>(sizeof(dReal)) - 1);
     }
+    unsigned char head[64];
+    std::memcpy(head, base, sizeof head);
+    dBodySetGravityMode(b, 0);
+    std::ptrdiff_t flags = -1;
+    for (std::ptrdiff_t k = 0; k < 64 && flags < 0; ++k) flags = head[k] != static_cast<unsigned char>(base[k]) ? k : -1;
     dBodyDestroy(b);
     record_lines_ = 0;
+    if (flags >= 0 && flags < lo) record_line_[record_lines_++] = flags;
     for (std::ptrdiff_t at = lo; at <= hi && record_lines_ < 7; at += 64) record_line_[record_lines_++] = at;
     record_line_[record_lines_++] = hi;
 }
