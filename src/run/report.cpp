@@ -75,10 +75,9 @@ nlohmann::json spread(const Collectives& domain, double v) {
     return {{"min", domain.min(v)}, {"avg", total.value() / domain.ranks()}, {"max", domain.max(v)}};
 }
 
-// The process with the highest peak memory (the lowest rank of equals), with
-// the bodies it held at the end: owned and ghosts.
-nlohmann::json fullest_rank(const Collectives& domain, const World& world, double rss) {
-    const double top = domain.max(rss);
+// The process whose peak memory is `top`, the largest (the lowest rank of
+// equals), with the bodies it held at the end: owned and ghosts.
+nlohmann::json fullest_rank(const Collectives& domain, const World& world, double rss, double top) {
     const int rank = static_cast<int>(domain.min(rss == top ? domain.rank() : domain.ranks()));
     std::int64_t held[2] = {0, 0};
     if (domain.rank() == rank) {
@@ -262,7 +261,10 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     domain.sum(&total_rss, 1);
     r["memory"] = {{"peak_rss_bytes", spread(domain, rss)},
                    {"bytes_per_body", total_rss.value() / std::max<double>(1.0, static_cast<double>(p.world().global_body_count()))}};
-    if (domain.distributed()) r["memory"]["fullest"] = fullest_rank(domain, p.world(), rss);
+    if (domain.distributed()) {
+        const double top = r["memory"]["peak_rss_bytes"]["max"].get<double>();  // spread's reduction, not another
+        r["memory"]["fullest"] = fullest_rank(domain, p.world(), rss, top);
+    }
     const nlohmann::json checks = p.checks_result();
     if (!checks.is_null()) r["checks"] = checks;
     r["build"] = build_info();
