@@ -123,13 +123,23 @@ TEST(Info, JointsRefuseDistributionWithTheDomainsReason) {
     EXPECT_FALSE(r.j["stages"]["migrate"]["runs"].get<bool>());
 }
 
+// Answering for 10^8 catoms does nothing per catom: 0.08 s here in a
+// release build, 5 s in the sanitized debug build (unoptimised, every access
+// checked), which gets a bound in proportion so that a busy CI machine
+// running another test beside it does not fail it (10.4 s was seen so).
+#ifdef PARODE_SANITIZED
+constexpr double kAtOnceSeconds = 40.0;
+#else
+constexpr double kAtOnceSeconds = 10.0;
+#endif
+
 TEST(Info, HundredMillionCatomsAnswerAtOnce) {
     const auto t0 = std::chrono::steady_clock::now();
     const Info r = info("tennis.toml", "--set catoms.count=100000000 --collide grid --solver parallel --ranks 1024 -q");
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(r.rc, 0) << r.out;
     EXPECT_EQ(r.j["bodies"], 100000000);
-    EXPECT_LT(s, 10.0) << "parode info took " << s << " s at 10^8 catoms";
+    EXPECT_LT(s, kAtOnceSeconds) << "parode info took " << s << " s at 10^8 catoms";
     EXPECT_TRUE(r.out.empty()) << "-q prints nothing: " << r.out;
     const double ghosts = r.j["distributed"]["estimate"]["ghost_fraction"].get<double>();
     EXPECT_GT(ghosts, 0.1);

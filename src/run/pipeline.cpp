@@ -8,6 +8,7 @@
 #include "run/stage_plan.hpp"
 #include "run/stages.hpp"
 #include "util/hash.hpp"
+#include "util/heap_trim.hpp"
 
 namespace parode {
 
@@ -57,6 +58,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 1;
 #endif
     timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
+    release_free_heap();  // the set-up's temporaries, before the first step's buffers
     if (program_) program_->prepare(*world_);  // the records of the catoms owned here, made as the bodies were
     const double collide_before = stages_[static_cast<int>(Stage::Collide)].seconds;
     timed(Stage::Collide, [this] { run_collide(); });
