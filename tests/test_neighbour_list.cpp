@@ -93,6 +93,29 @@ TEST(NeighbourList, ManyOtherGeomsDeclineTheList) {
     dSpaceDestroy(space);
 }
 
+// Other geoms in the table's slots with the table's size unchanged (on a
+// rank, a migration that sends as many bodies away as it brings): the list
+// is built afresh at once, as for a table of another size, not left to the
+// grid for a while as after spheres that outran their skin (there the merge
+// sorts, and its buffers set a rank's peak memory).
+TEST(NeighbourList, OtherGeomsInTheTablesSlotsRebuildAtOnce) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    World w(sc, SpaceKind::Simple);
+    std::vector<dGeomID> geoms = w.geoms();
+    omp::CollideEngine e;
+    e.set_threads(2);
+    e.set_geoms(w.space(), &geoms);
+    for (int call = 0; call < 5; ++call) {
+        if (call == 2) std::swap(geoms[3], geoms[700]);
+        ContactBuffer out;
+        e.collide(w.space(), 4, out);
+        ASSERT_EQ(contact_digest(out), reference_digest(w.space())) << "call " << call;
+        const omp::CollideEngine::ListCounts c = e.list_counts();
+        EXPECT_EQ(c.builds, call < 2 ? 1u : 2u) << "call " << call;
+        EXPECT_EQ(c.uses, call < 2 ? std::size_t(call) : std::size_t(call - 1)) << "call " << call;
+    }
+}
+
 // A table out of id order (as a rank's: owned bodies and ghosts in local
 // order) is walked in id order: the contacts still equal ODE's, and every
 // merge writes the lanes in order without sorting. 20,000 spheres on three

@@ -216,6 +216,7 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
     for (std::size_t i = i0; i < i1; ++i) {
         const PrimData& p = t.info[i].prim;
         part.in_id_order &= i == i0 || t.info[i - 1].prim.id < p.id;
+        part.slots += slot_digest(i, p.id);
         float* r = ref_.data() + 4 * i;
         if (!listable(p.flags)) {
             r[3] = -1;
@@ -311,6 +312,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
         all.in_id_order &= p.in_id_order && (!any || p.first_id > last_id);
         if (p.listed + p.outside > 0) last_id = p.last_id, any = true;
         all.enabled_outside += p.enabled_outside;
+        all.slots += p.slots;
         all.rmax = std::max(all.rmax, p.rmax);
         all.shift = std::max(all.shift, p.shift);
         all.bounds.add(p.bounds);
@@ -331,6 +333,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
     const std::vector<std::uint32_t> pos = walk_in_id_order(t, all.in_id_order);
     link(grid, items, pos.empty() ? nullptr : pos.data(), radius_up(need));
     owner_ = owner;
+    slots_ = all.slots;
     lived_ = 0;
     ++counts_.builds;
     return true;

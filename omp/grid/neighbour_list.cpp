@@ -96,44 +96,52 @@ void list_block(const PairInputs& in, const std::uint32_t* start, const ListEntr
 
 }  // namespace
 
-bool NeighbourList::check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const {
+NeighbourList::Check NeighbourList::check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const {
     const double skin2 = skin_ * skin_;
     const float* ref = ref_.data();
-    bool ok = true;
+    Check c;
     for (std::size_t i = i0; i < i1; ++i) {
         const PrimData& p = info[i].prim;
         const float* r = ref + 4 * i;
         const bool listed = r[3] >= 0;
         const double dx = p.p[0] - r[0], dy = p.p[1] - r[1], dz = p.p[2] - r[2];
         const bool near = (dx * dx + dy * dy + dz * dz <= skin2) & (p.p[3] <= r[3]);
-        ok &= (listable(p.flags) == listed) & (!listed | near);
+        c.ok &= (listable(p.flags) == listed) & (!listed | near);
+        c.slots += slot_digest(i, p.id);
     }
-    return ok;
+    return c;
 }
 
 bool NeighbourList::covers(const void* owner, const GeomTable& infos) {
     if (owner != owner_ || infos.size() != n_ || owner == nullptr) return false;
     const std::size_t n = n_;
     const std::size_t blocks = task_count(n, kListBlock);
-    std::vector<unsigned char> ok(blocks, 0);
-    unsigned char* out = ok.data();
+    std::vector<Check> checks(blocks);
+    Check* out = checks.data();
     const GeomInfo* info = infos.view().info;
     const NeighbourList* self = this;
 #pragma omp taskloop num_tasks(blocks) default(none) firstprivate(out, info, self, n, blocks)
     for (std::size_t b = 0; b < blocks; ++b) {
         out[b] = self->check_block(info, task_begin(n, blocks, b), task_begin(n, blocks, b + 1));
     }
-    if (std::all_of(ok.begin(), ok.end(), [](unsigned char c) { return c != 0; })) {
+    std::uint64_t slots = 0;
+    bool ok = true;
+    for (const Check& c : checks) slots += c.slots, ok &= c.ok;
+    if (ok && slots == slots_) {
         ++lived_;
         ++counts_.uses;
         return true;
     }
-    // Spent. After a list that served fewer than two calls beyond its build,
-    // the grid runs for longer each time before the next build: spheres that
-    // move this fast gain nothing from a list.
+    owner_ = nullptr;
+    // Other geoms in the table's slots (bodies arrived, left or moved to
+    // other slots, as on a rank after a migration): built afresh, as when the
+    // table's size changes. Spent otherwise: after a list that served fewer
+    // than two calls beyond its build, the grid runs for longer each time
+    // before the next build: spheres that move this fast gain nothing from a
+    // list.
+    if (slots != slots_) return false;
     cooldown_ = lived_ < 2 ? std::min(kListMaxCooldown, std::max<std::size_t>(1, 2 * cooldown_)) : 0;
     wait_ = cooldown_;
-    owner_ = nullptr;
     return false;
 }
 

@@ -18,6 +18,9 @@
 // order (a rank's table, owned bodies and ghosts in local order, is sorted
 // by id once a build, in tasks), so their runs reach the merge in canonical
 // order.
+// A table whose slots hold other geoms than at the build (a rank's after a
+// migration; told by a sum of hashes of each slot's index and id) is built
+// afresh at once, whatever its size.
 // Trade-off: about 32 bytes a sphere kept between calls (36 on a rank, with
 // the walk) and a rebuild whenever one sphere has moved the skin's length; a
 // scene whose spheres all fly apart fast rebuilds every call and then falls
@@ -31,11 +34,18 @@
 #include "omp/grid/geom_info.hpp"
 #include "omp/grid/grid_pairs.hpp"
 #include "omp/grid/lanes.hpp"
+#include "util/split_mix.hpp"
 
 namespace parode::omp {
 
 constexpr std::size_t kListBlock = 2048;     // table entries per task
 constexpr std::size_t kListMaxCooldown = 16;  // calls the grid runs alone at most, between builds
+
+// Which geom sits at which table index, as one number: a sum over the table
+// of a hash of (index, id), so that blocks can add theirs in any order.
+inline std::uint64_t slot_digest(std::size_t i, std::uint32_t id) {
+    return SplitMix64::mix((static_cast<std::uint64_t>(i) << 32) | id);
+}
 
 // Whether a geom with these flags goes on the list: a plain, finite sphere.
 inline bool listable(std::uint32_t f) { return (f & kSphere) && !(f & kAux) && (f & kFinite); }
@@ -87,8 +97,15 @@ private:
         CellBounds bounds;
         bool in_id_order = true;  // ids rise along the block
         std::uint32_t first_id = 0, last_id = 0;
+        std::uint64_t slots = 0;  // slot_digest summed over the block
     };
-    bool check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
+    // What the check learns of a block: whether its spheres are still covered,
+    // and its slot_digest sum.
+    struct Check {
+        bool ok = true;
+        std::uint64_t slots = 0;
+    };
+    Check check_block(const GeomInfo* info, std::size_t i0, std::size_t i1) const;
     void decline();
     Part reference(const GeomView& t, std::size_t i0, std::size_t i1);
     void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
@@ -106,6 +123,7 @@ private:
     std::vector<std::uint32_t> walk_, start_;
     std::vector<ListEntry> next_;
     std::vector<std::uint32_t> outside_;   // table indices not listed
+    std::uint64_t slots_ = 0;              // the table's slot_digest sum at the build
     std::size_t lived_ = 0;                // calls the current list served
     std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
     Counts counts_;
