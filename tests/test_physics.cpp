@@ -6,6 +6,7 @@
 // states exactly what it simulates; the buggy runs its repository scene.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -124,63 +125,108 @@ TEST(Physics, MagnetForcesAreEqualAndOpposite) {
     EXPECT_GT(a.force[0], 0.0);  // body 0 is pulled towards body 1 (+x)
 }
 
-// A loose cloud of catoms at random orientations, 1.0 to 1.3 m apart: every
-// body's gathered wrench equals the sum over every pole pair of the scene
-// within the cutoff (all pairs, no cells nor pruning), to rounding. Many
-// pole pairs lie anywhere in the cutoff here, unlike in a settled lattice.
-TEST(Physics, MagnetGatherEqualsEveryPolePairSummed) {
+// A loose cloud of side^3 catoms at random orientations, 1.0 to 1.3 m apart.
+Scene magnet_cloud(int side) {
     std::ostringstream text;
     text << "[scene]\nname = \"cloud\"\ndt = 0.005\ngravity = [0.0, 0.0, 0.0]\n";
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    for (int i = 0; i < 27; ++i) {
-        const double x = (i % 3) * 1.15 + 0.15 * u(rng), y = (i / 3 % 3) * 1.15 + 0.15 * u(rng), z = (i / 9) * 1.15 + 0.15 * u(rng);
+    for (int i = 0; i < side * side * side; ++i) {
+        const double x = (i % side) * 1.15 + 0.15 * u(rng), y = (i / side % side) * 1.15 + 0.15 * u(rng),
+                     z = (i / (side * side)) * 1.15 + 0.15 * u(rng);
         text << "[[bodies]]\nname = \"c" << i << "\"\ncatom = true\nposition = [" << x << ", " << y << ", " << z
              << "]\nrotation = {axis = [" << u(rng) << ", " << u(rng) << ", 1.0], angle = " << 3 * u(rng) << "}\n";
     }
     text << "[magnets]\nenabled = true\ncutoff = 0.45\n";
-    const Scene sc = load_scene_text(text.str(), "cloud");
-    World w(sc, SpaceKind::Simple);
-    MagnetField field(sc);
-    field.prepare(w);
+    return load_scene_text(text.str(), "cloud");
+}
+
+// Body i's wrench summed over every pole pair of the scene within the cutoff
+// (no cells nor pruning); `pairs` counts the pairs.
+BodyWrench every_pole_pair(const Scene& sc, const World& w, std::size_t i, int& pairs) {
     const MagnetModel& mm = sc.magnets;
-    auto pole = [&](std::size_t i, std::size_t a) {
-        const dReal* p = dBodyGetPosition(w.body(i));
-        const dReal* R = dBodyGetRotation(w.body(i));
+    auto pole = [&](std::size_t b, std::size_t a) {
+        const dReal* p = dBodyGetPosition(w.body(b));
+        const dReal* R = dBodyGetRotation(w.body(b));
         const Vec3& d = mm.directions[a];
-        const double r = sc.bodies[i].shape.radius;
+        const double r = sc.bodies[b].shape.radius;
         return Vec3{p[0] + r * (R[0] * d[0] + R[1] * d[1] + R[2] * d[2]), p[1] + r * (R[4] * d[0] + R[5] * d[1] + R[6] * d[2]),
                     p[2] + r * (R[8] * d[0] + R[9] * d[1] + R[10] * d[2])};
     };
-    int pairs = 0;
-    for (std::size_t i = 0; i < w.body_count(); ++i) {
-        double f[3] = {0, 0, 0}, t[3] = {0, 0, 0};
-        const dReal* c = dBodyGetPosition(w.body(i));
-        for (std::size_t j = 0; j < w.body_count(); ++j) {
-            for (std::size_t a = 0; a < mm.directions.size() && j != i; ++a) {
-                for (std::size_t b = 0; b < mm.directions.size(); ++b) {
-                    const Vec3 pa = pole(i, a), pb = pole(j, b);
-                    const double d[3] = {pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
-                    const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                    if (r2 >= mm.cutoff * mm.cutoff) continue;
-                    ++pairs;
-                    const double s = r2 + mm.softening * mm.softening, taper = (1 - r2 / (mm.cutoff * mm.cutoff));
-                    const double k = mm.strength * mm.charges[a] * mm.charges[b] * taper * taper / (s * std::sqrt(s));
-                    const double F[3] = {k * d[0], k * d[1], k * d[2]}, arm[3] = {pa[0] - c[0], pa[1] - c[1], pa[2] - c[2]};
-                    for (int e = 0; e < 3; ++e) f[e] += F[e];
-                    t[0] += arm[1] * F[2] - arm[2] * F[1];
-                    t[1] += arm[2] * F[0] - arm[0] * F[2];
-                    t[2] += arm[0] * F[1] - arm[1] * F[0];
-                }
+    BodyWrench out;
+    const dReal* c = dBodyGetPosition(w.body(i));
+    for (std::size_t j = 0; j < w.body_count(); ++j) {
+        for (std::size_t a = 0; a < mm.directions.size() && j != i; ++a) {
+            for (std::size_t b = 0; b < mm.directions.size(); ++b) {
+                const Vec3 pa = pole(i, a), pb = pole(j, b);
+                const double d[3] = {pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
+                const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if (r2 >= mm.cutoff * mm.cutoff) continue;
+                ++pairs;
+                const double s = r2 + mm.softening * mm.softening, taper = (1 - r2 / (mm.cutoff * mm.cutoff));
+                const double k = mm.strength * mm.charges[a] * mm.charges[b] * taper * taper / (s * std::sqrt(s));
+                const double F[3] = {k * d[0], k * d[1], k * d[2]}, arm[3] = {pa[0] - c[0], pa[1] - c[1], pa[2] - c[2]};
+                for (int e = 0; e < 3; ++e) out.force[e] += F[e];
+                out.torque[0] += arm[1] * F[2] - arm[2] * F[1];
+                out.torque[1] += arm[2] * F[0] - arm[0] * F[2];
+                out.torque[2] += arm[0] * F[1] - arm[1] * F[0];
             }
         }
-        const BodyWrench g = field.gather(i);
+    }
+    return out;
+}
+
+// Every body's gathered wrench equals every_pole_pair's, to rounding; returns
+// the pole pairs counted.
+int expect_every_pole_pair(const Scene& sc, const World& w, const MagnetField& field, const char* what) {
+    int pairs = 0;
+    for (std::size_t i = 0; i < w.body_count(); ++i) {
+        const BodyWrench f = every_pole_pair(sc, w, i, pairs), g = field.gather(i);
         for (int e = 0; e < 3; ++e) {
-            EXPECT_NEAR(g.force[e], f[e], 1e-9 * (1 + std::fabs(f[e]))) << "body " << i;
-            EXPECT_NEAR(g.torque[e], t[e], 1e-9 * (1 + std::fabs(t[e]))) << "body " << i;
+            EXPECT_NEAR(g.force[e], f.force[e], 1e-9 * (1 + std::fabs(f.force[e]))) << what << ", body " << i;
+            EXPECT_NEAR(g.torque[e], f.torque[e], 1e-9 * (1 + std::fabs(f.torque[e]))) << what << ", body " << i;
         }
     }
+    return pairs;
+}
+
+// 27 catoms: every body's gathered wrench equals the sum over every pole pair
+// of the scene within the cutoff, to rounding. Many pole pairs lie anywhere
+// in the cutoff here, unlike in a settled lattice.
+TEST(Physics, MagnetGatherEqualsEveryPolePairSummed) {
+    const Scene sc = magnet_cloud(3);
+    World w(sc, SpaceKind::Simple);
+    MagnetField field(sc);
+    field.prepare(w);
+    const int pairs = expect_every_pole_pair(sc, w, field, "cloud");
     EXPECT_GT(pairs, 40) << "the cloud must put many pole pairs inside the cutoff (each counted from both sides)";
+}
+
+// The same field prepared again after its bodies moved (a few by half a
+// cell: the cell list sorted from last step's order by insertion; every body
+// to another's place: by std::sort) still gathers every pole pair.
+TEST(Physics, MagnetCellListFollowsMovedBodies) {
+    const Scene sc = magnet_cloud(5);
+    World w(sc, SpaceKind::Simple);
+    MagnetField field(sc);
+    field.prepare(w);
+    for (std::size_t i = 0; i < w.body_count(); i += 7) {
+        const dReal* p = dBodyGetPosition(w.body(i));
+        dBodySetPosition(w.body(i), p[0] + 0.5 * field.reach(), p[1] - 0.5 * field.reach(), p[2]);
+    }
+    field.prepare(w);
+    expect_every_pole_pair(sc, w, field, "a few moved");
+    std::vector<std::size_t> order(w.body_count());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::shuffle(order.begin(), order.end(), std::mt19937(3));
+    std::vector<Vec3> at(w.body_count());
+    for (std::size_t i = 0; i < at.size(); ++i) {
+        const dReal* p = dBodyGetPosition(w.body(order[i]));
+        at[i] = {p[0], p[1], p[2]};
+    }
+    for (std::size_t i = 0; i < at.size(); ++i) dBodySetPosition(w.body(i), at[i][0], at[i][1], at[i][2]);
+    field.prepare(w);
+    expect_every_pole_pair(sc, w, field, "every body moved");
 }
 
 TEST(Physics, BuggyDrivesForwardTurnsAndStaysUpright) {

@@ -4,7 +4,9 @@
 // neighbours, so the result is bit for bit the serial one for any thread
 // count; applying the wrenches stays serial, in id order (dBodyAddForce is
 // safe only on distinct bodies, and order fixes the sums).
-// Trade-off: pole positions and the cell sort are still prepared serially.
+// Pole positions and cell keys are computed on the execution's loops; the
+// cell list is sorted serially (mostly a pass: it starts from last step's
+// order). Trade-off: applying the wrenches stays on one thread.
 #pragma once
 #include <vector>
 
@@ -20,6 +22,7 @@ public:
 
 protected:
     void gather_all(const MagnetField& field, std::vector<BodyWrench>& out) const override;
+    const LoopRunner& loops() const override { return exec_.loops(); }
 
 private:
     const Execution& exec_;

@@ -51,27 +51,51 @@ void MagnetField::find_members(const World& world) {
     centre_.resize(members_.size());
     poles_.resize(members_.size() * model_.directions.size());
     cells_.resize(members_.size());
+    at_.resize(members_.size());
+    for (std::size_t k = 0; k < at_.size(); ++k) at_[k] = static_cast<std::uint32_t>(k);
     generation_ = world.generation();
     magnet_version_ = world.magnet_version();
 }
 
-void MagnetField::prepare(const World& world) {
+void MagnetField::prepare(const World& world, const LoopRunner& loops) {
     if (world.generation() != generation_ || world.magnet_version() != magnet_version_) find_members(world);
-    const std::size_t np = model_.directions.size();
-    for (std::size_t k = 0; k < members_.size(); ++k) {
-        if (k + kRecordAhead < members_.size()) world.prefetch_body(members_[k + kRecordAhead]);
-        dBodyID b = world.body(members_[k]);
-        const dReal* p = dBodyGetPosition(b);
-        const dReal* R = dBodyGetRotation(b);
-        centre_[k] = {p[0], p[1], p[2]};
-        for (std::size_t a = 0; a < np; ++a) {
-            const Vec3 d = rotate(R, model_.directions[a]);
-            poles_[k * np + a] = {p[0] + radius_[k] * d[0], p[1] + radius_[k] * d[1], p[2] + radius_[k] * d[2]};
+    for_ranges(loops, members_.size(), 2048, [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) {
+            if (k + kRecordAhead < k1) world.prefetch_body(members_[k + kRecordAhead]);
+            place(world, k);
         }
-        cells_[k] = {cell_key(centre_[k]), world.gid(members_[k]), static_cast<std::uint32_t>(k)};
-    }
-    std::sort(cells_.begin(), cells_.end());
+    });
+    sort_cells();
     index_cells();
+}
+
+void MagnetField::place(const World& world, std::size_t k) {
+    const std::size_t np = model_.directions.size();
+    dBodyID b = world.body(members_[k]);
+    const dReal* p = dBodyGetPosition(b);
+    const dReal* R = dBodyGetRotation(b);
+    centre_[k] = {p[0], p[1], p[2]};
+    for (std::size_t a = 0; a < np; ++a) {
+        const Vec3 d = rotate(R, model_.directions[a]);
+        poles_[k * np + a] = {p[0] + radius_[k] * d[0], p[1] + radius_[k] * d[1], p[2] + radius_[k] * d[2]};
+    }
+    cells_[at_[k]] = {cell_key(centre_[k]), world.gid(members_[k]), static_cast<std::uint32_t>(k)};
+}
+
+// The entries were written in last step's sorted order, so most steps only
+// a few bodies changed cells: insertion moves them in place while they are
+// few (up to 8 moves an entry), and std::sort takes over beyond.
+void MagnetField::sort_cells() {
+    const std::size_t n = cells_.size();
+    std::size_t moves = 0, i = 1;
+    for (; i < n && moves <= 8 * n; ++i) {
+        const CellEntry e = cells_[i];
+        std::size_t j = i;
+        for (; j > 0 && e < cells_[j - 1]; --j, ++moves) cells_[j] = cells_[j - 1];
+        cells_[j] = e;
+    }
+    if (i < n) std::sort(cells_.begin(), cells_.end());
+    for (std::size_t e = 0; e < n; ++e) at_[cells_[e].member] = static_cast<std::uint32_t>(e);
 }
 
 void MagnetField::index_cells() {
@@ -175,7 +199,7 @@ void MagnetPass::gather_all(const MagnetField& field, std::vector<BodyWrench>& o
 }
 
 const std::vector<BodyWrench>& MagnetPass::wrenches(const World& world) {
-    field_.prepare(world);
+    field_.prepare(world, loops());
     wrenches_.resize(field_.targets().size());
     gather_all(field_, wrenches_);
     return wrenches_;

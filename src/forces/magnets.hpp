@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "exec/loops.hpp"
 #include "forces/force_pass.hpp"
 #include "world/world.hpp"
 
@@ -31,8 +32,11 @@ public:
     explicit MagnetField(const Scene& scene);
     explicit MagnetField(Scene&&) = delete;  // keeps a reference to the scene
     // Members (after any change of the world's bodies), pole positions and
-    // the cell list, from the current body states (serial).
-    void prepare(const World& world);
+    // the cell list, from the current body states: the members' poles and
+    // keys on `loops` (serial by default), the cell list sorted from last
+    // step's order (the same list however it is sorted: its entries are
+    // distinct).
+    void prepare(const World& world, const LoopRunner& loops = LoopRunner{});
     // Force and torque on magnetised body number k (index into members()).
     BodyWrench gather(std::size_t k) const;
     // Local indices of the bodies with magnets on, owned and ghosts.
@@ -54,6 +58,9 @@ private:
     // The run of cells_ in cell `key` (empty when none): a lookup in index_.
     std::pair<std::uint32_t, std::uint32_t> run_of(std::int64_t key) const;
     void index_cells();
+    // Member k's centre, poles and cell entry (at cells_[at_[k]]).
+    void place(const World& world, std::size_t k);
+    void sort_cells();
     // Adds to w the pairs of k with the bodies of one run of cells_.
     void visit(std::size_t k, std::pair<std::uint32_t, std::uint32_t> run, BodyWrench& w) const;
     void add_pair(std::size_t k, std::size_t m, BodyWrench& w) const;
@@ -71,6 +78,7 @@ private:
     std::vector<Vec3> centre_;            // per member
     std::vector<Vec3> poles_;             // member-major, world frame
     std::vector<CellEntry> cells_;        // sorted by (cell key, gid)
+    std::vector<std::uint32_t> at_;       // per member: its place in cells_ after the last sort
     // Open addressing from a cell key to its run of cells_ (key -1: a free
     // slot), twice the occupied cells: one probe a cell where a binary
     // search of cells_ took about 16 mispredicted steps.
@@ -99,10 +107,13 @@ public:
 protected:
     // Fills out[j] = field.gather(targets[j]) for every target j.
     virtual void gather_all(const MagnetField& field, std::vector<BodyWrench>& out) const;
+    // Where the field's per-member loops run (here: serially).
+    virtual const LoopRunner& loops() const { return serial_; }
 
 private:
     MagnetField field_;
     std::vector<BodyWrench> wrenches_;
+    LoopRunner serial_;
 };
 
 }  // namespace parode
