@@ -122,10 +122,7 @@ TEST_F(Mpi, InjectedLatencyDelaysEveryExchangeAndChangesNoBit) {
     const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
                                " --set catoms.count=1000 --steps 3 --threads 1";
     ASSERT_EQ(run(2, common + " --report " + path("none.json")).rc, 0);
-    const std::string env = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive ";
-    const std::string launcher = std::string(PARODE_MPIEXEC) + " -n 2 --oversubscribe -x PARODE_INJECT_LATENCY_US ";
-    const Result slow = parode::test::run_parode({common + " --report " + path("slow.json"),
-                                                  env + "PARODE_INJECT_LATENCY_US=1000", launcher, dir_, 240});
+    const Result slow = run(2, common + " --report " + path("slow.json"), 240, "PARODE_INJECT_LATENCY_US=1000");
     ASSERT_EQ(slow.rc, 0) << slow.err;
     const nlohmann::json none = report("none.json"), late = report("slow.json");
     EXPECT_EQ(late["state_hash"], none["state_hash"]);
@@ -133,7 +130,7 @@ TEST_F(Mpi, InjectedLatencyDelaysEveryExchangeAndChangesNoBit) {
     const double waited = late["parallel"]["wait_seconds"]["min"].get<double>();
     EXPECT_GT(waited, 0.8 * 3 * 168 * 1e-3) << "every colour's exchange held about 1 ms";
     EXPECT_LT(none["parallel"]["wait_seconds"]["max"].get<double>(), 0.5 * waited);
-    const Result bad = parode::test::run_parode({common, env + "PARODE_INJECT_LATENCY_US=soon", launcher, dir_, 240});
+    const Result bad = run(2, common, 240, "PARODE_INJECT_LATENCY_US=soon");
     EXPECT_EQ(bad.rc, 2) << bad.err;
     EXPECT_NE(bad.err.find("PARODE_INJECT_LATENCY_US=soon: expected microseconds"), std::string::npos) << bad.err;
 }
@@ -149,16 +146,11 @@ TEST_F(Mpi, InjectedLatencyDelaysEveryExchangeAndChangesNoBit) {
 // run (util/huge_pages.hpp), which is the kernel's state, not the rank's.
 TEST_F(Mpi, MemoryPerRankFollowsWhatTheRankHolds) {
     std::vector<double> per_body;
-    const std::string env = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive "
-                            "PARODE_HUGE_PAGES=0";
     for (int ranks : {2, 4, 8}) {
         const std::string name = "mem" + std::to_string(ranks) + ".json";
-        const std::string launcher =
-            std::string(PARODE_MPIEXEC) + " -n " + std::to_string(ranks) + " --oversubscribe -x PARODE_HUGE_PAGES ";
-        const Result r = parode::test::run_parode(
-            {" run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q --steps 1 --threads 1"
-             " --set catoms.count=" + std::to_string(50000 * ranks) + " --report " + path(name),
-             env, launcher, dir_, 240});
+        const Result r = run(ranks, " run " + kSource + "/jobs/scenes/tennis.toml --collide grid --solver parallel -q"
+                                    " --steps 1 --threads 1 --set catoms.count=" + std::to_string(50000 * ranks) +
+                                    " --report " + path(name), 240, "PARODE_HUGE_PAGES=0");
         ASSERT_EQ(r.rc, 0) << r.err;
         const nlohmann::json j = report(name), fullest = j["memory"]["fullest"];
         ASSERT_GE(fullest["rank"].get<int>(), 0);

@@ -38,12 +38,16 @@ class Mpi : public parode::test::ScratchDirTest {
 protected:
     Mpi() : ScratchDirTest("mpi") {}
 
-    // `parode ARGS` on `ranks` processes (0: without mpiexec), stderr kept.
-    Result run(int ranks, const std::string& args, int timeout_s = 240) const {
-        const std::string launcher =
+    // `parode ARGS` on `ranks` processes (0: without mpiexec), stderr kept;
+    // `var` (NAME=VALUE, or empty) set for it, and passed on to every process
+    // by mpiexec (-x NAME).
+    Result run(int ranks, const std::string& args, int timeout_s = 240, const std::string& var = "") const {
+        std::string launcher =
             ranks > 0 ? std::string(PARODE_MPIEXEC) + " -n " + std::to_string(ranks) + " --oversubscribe " : "";
-        return parode::test::run_parode({args, "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive",
-                                         launcher, dir_, timeout_s});
+        if (ranks > 0 && !var.empty()) launcher += "-x " + var.substr(0, var.find('=')) + " ";
+        std::string env = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=passive";
+        if (!var.empty()) env += " " + var;
+        return parode::test::run_parode({args, env, launcher, dir_, timeout_s});
     }
     nlohmann::json report(const std::string& name) const { return parode::test::read_json(dir_ / name); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
