@@ -95,10 +95,11 @@ TEST(NeighbourList, ManyOtherGeomsDeclineTheList) {
 
 // Other geoms in the table's slots with the table's size unchanged (on a
 // rank, a migration that sends as many bodies away as it brings): the list
-// is built afresh at once, as for a table of another size, not left to the
-// grid for a while as after spheres that outran their skin (there the merge
-// sorts, and its buffers set a rank's peak memory).
-TEST(NeighbourList, OtherGeomsInTheTablesSlotsRebuildAtOnce) {
+// is patched (the two geoms keep their references and pairs under their new
+// slots), not built again nor left to the grid for a while as after spheres
+// that outran their skin (there the merge sorts, and its buffers set a
+// rank's peak memory).
+TEST(NeighbourList, OtherGeomsInTheTablesSlotsArePatchedIn) {
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
     World w(sc, SpaceKind::Simple);
     std::vector<dGeomID> geoms = w.geoms();
@@ -111,8 +112,41 @@ TEST(NeighbourList, OtherGeomsInTheTablesSlotsRebuildAtOnce) {
         e.collide(w.space(), 4, out);
         ASSERT_EQ(contact_digest(out), reference_digest(w.space())) << "call " << call;
         const omp::CollideEngine::ListCounts c = e.list_counts();
-        EXPECT_EQ(c.builds, call < 2 ? 1u : 2u) << "call " << call;
-        EXPECT_EQ(c.uses, call < 2 ? std::size_t(call) : std::size_t(call - 1)) << "call " << call;
+        EXPECT_EQ(c.builds, 1u) << "call " << call;
+        EXPECT_EQ(c.uses, std::size_t(call)) << "call " << call;
+        EXPECT_EQ(c.patches, call < 2 ? 0u : 1u) << "call " << call;
+        EXPECT_EQ(c.merges_sorted, 0u) << "call " << call;
+    }
+}
+
+// A rank's table as bodies cross its boundaries: every call some bodies
+// leave (the last moving into each gap), others arrive (owned or ghosts,
+// beside and inside the pile, touching the bodies held), and all creep. The
+// list is patched each call, and its contacts equal ODE's own space's; a call
+// that changes more than an eighth of the table builds it afresh.
+TEST(NeighbourList, BodiesLeavingAndArrivingArePatchedIn) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=8000"});
+    std::vector<std::uint32_t> gids, later;
+    for (std::uint32_t i = 0; i < 8000; ++i) (i % 4 ? gids : later).push_back(static_cast<std::uint32_t>((std::uint64_t{i} * 7919) % 8000));
+    World w(sc, SpaceKind::Hash, &gids);
+    omp::CollideEngine e;
+    e.set_threads(2);
+    e.set_geoms(w.space(), &w.geoms());
+    e.set_sphere_bodies(w.sphere_bodies());
+    std::size_t next = 0;
+    for (int call = 0; call < 8; ++call) {
+        const std::size_t leave = call == 6 ? w.body_count() / 6 : 40, come = call == 6 ? 900 : 60;
+        for (std::size_t k = 0; call > 0 && k < leave; ++k) w.remove_body((k * 131 + static_cast<std::size_t>(call)) % w.body_count());
+        for (std::size_t k = 0; call > 0 && k < come && next < later.size(); ++k) w.add_body(later[next++], k % 3 == 0);
+        creep(w, call);
+        ContactBuffer out;
+        e.collide(w.space(), 4, out);
+        ASSERT_EQ(contact_digest(out), reference_digest(w.space())) << "call " << call;
+        ASSERT_GT(out.size(), 5000u);
+        const omp::CollideEngine::ListCounts c = e.list_counts();
+        EXPECT_EQ(c.builds, call < 6 ? 1u : 2u) << "call " << call;
+        EXPECT_EQ(c.patches, static_cast<std::size_t>(call < 6 ? call : call - 1)) << "call " << call;
+        EXPECT_EQ(c.merges_sorted, 0u) << "call " << call;
     }
 }
 

@@ -104,6 +104,7 @@ struct CollideEngine::Impl {
         exec = e;
         infos.set_pool(&e->scratch());
         grid.set_scratch(&e->scratch());
+        neighbours.set_scratch(&e->scratch());
     }
     int team_size() const { return exec->threads(); }
     // One thread below the measured crossover or on shared cores (exec/team.hpp).
@@ -446,7 +447,7 @@ std::uint64_t CollideEngine::list_digest() const { return impl_->neighbours.dige
 
 CollideEngine::ListCounts CollideEngine::list_counts() const {
     const NeighbourList::Counts& c = impl_->neighbours.counts();
-    return ListCounts{c.builds, c.uses, c.declined, impl_->merges_in_order, impl_->merges_sorted};
+    return ListCounts{c.builds, c.uses, c.declined, c.patches, impl_->merges_in_order, impl_->merges_sorted};
 }
 
 void CollideEngine::collide(dSpaceID space, int max_contacts, ContactBuffer& out) {
@@ -491,6 +492,7 @@ std::vector<std::pair<std::string, std::int64_t>> GridBackend::counts() const {
     return {{"neighbour_list_builds", static_cast<std::int64_t>(c.builds)},
             {"neighbour_list_uses", static_cast<std::int64_t>(c.uses)},
             {"neighbour_list_declined", static_cast<std::int64_t>(c.declined)},
+            {"neighbour_list_patches", static_cast<std::int64_t>(c.patches)},
             {"merges_in_order", static_cast<std::int64_t>(c.merges_in_order)},
             {"merges_sorted", static_cast<std::int64_t>(c.merges_sorted)}};
 }

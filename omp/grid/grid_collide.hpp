@@ -92,6 +92,7 @@ public:
     bool neighbour_list() const;
     struct ListCounts {
         std::size_t builds = 0, uses = 0, declined = 0;
+        std::size_t patches = 0;  // uses that patched the list for a changed table first
         // collide()'s merges whose lanes arrived in canonical order, and the others.
         std::size_t merges_in_order = 0, merges_sorted = 0;
     };

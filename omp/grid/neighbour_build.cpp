@@ -21,14 +21,6 @@ namespace parode::omp {
 namespace {
 
 constexpr double kSkin = 0.1;  // skin over the largest radius
-constexpr std::size_t kMaxOutside = 64;  // enabled geoms outside the list, tested against every sphere
-
-// The radius as a float no smaller than it.
-float radius_up(double r) {
-    float f = static_cast<float>(r);
-    if (static_cast<double>(f) < r) f = std::nextafter(f, HUGE_VALF);
-    return f;
-}
 
 double squared_distance(const dReal* a, const dReal* b) {
     const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
@@ -194,6 +186,12 @@ void place_lists(const CellSpheres& cells, const std::vector<Found>& found, cons
 
 }  // namespace
 
+float radius_up(double r) {
+    float f = static_cast<float>(r);
+    if (static_cast<double>(f) < r) f = std::nextafter(f, HUGE_VALF);
+    return f;
+}
+
 // No list: its memory is given back (a space that declines once usually
 // declines every time).
 void NeighbourList::decline() {
@@ -204,6 +202,7 @@ void NeighbourList::decline() {
     std::vector<ListEntry>().swap(next_);
     std::vector<std::uint32_t>().swap(outside_);
     std::vector<std::uint32_t>().swap(walk_);
+    std::vector<std::uint32_t>().swap(ids_);
     ++counts_.declined;
     wait_ = kListMaxCooldown;
 }
@@ -217,6 +216,7 @@ NeighbourList::Part NeighbourList::reference(const GeomView& t, std::size_t i0, 
         const PrimData& p = t.info[i].prim;
         part.in_id_order &= i == i0 || t.info[i - 1].prim.id < p.id;
         part.slots += slot_digest(i, p.id);
+        ids_[i] = p.id;
         float* r = ref_.data() + 4 * i;
         if (!listable(p.flags)) {
             r[3] = -1;
@@ -299,6 +299,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
     const GeomView t = infos.view();
     n_ = infos.size();
     scratch_resize(ref_, 4 * n_);
+    scratch_resize(ids_, n_);
     const std::size_t n = n_, blocks = task_count(n, kListBlock);
     std::vector<Part> parts(blocks);
     Part* part = parts.data();
@@ -318,6 +319,7 @@ bool NeighbourList::build(const void* owner, const GeomTable& infos, CellGrid& g
         all.bounds.add(p.bounds);
     }
     skin_ = kSkin * all.rmax;
+    rmax_ = all.rmax;
     if (all.enabled_outside > kMaxOutside || !(all.shift <= 0.25 * skin_)) {
         decline();
         return false;

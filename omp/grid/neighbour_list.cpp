@@ -113,7 +113,8 @@ NeighbourList::Check NeighbourList::check_block(const GeomInfo* info, std::size_
 }
 
 bool NeighbourList::covers(const void* owner, const GeomTable& infos) {
-    if (owner != owner_ || infos.size() != n_ || owner == nullptr) return false;
+    if (owner != owner_ || owner == nullptr) return false;
+    if (infos.size() != n_) return patched(infos);
     const std::size_t n = n_;
     const std::size_t blocks = task_count(n, kListBlock);
     std::vector<Check> checks(blocks);
@@ -132,16 +133,28 @@ bool NeighbourList::covers(const void* owner, const GeomTable& infos) {
         ++counts_.uses;
         return true;
     }
-    owner_ = nullptr;
     // Other geoms in the table's slots (bodies arrived, left or moved to
-    // other slots, as on a rank after a migration): built afresh, as when the
-    // table's size changes. Spent otherwise: after a list that served fewer
-    // than two calls beyond its build, the grid runs for longer each time
-    // before the next build: spheres that move this fast gain nothing from a
-    // list.
-    if (slots != slots_) return false;
+    // other slots, as on a rank after a migration): patched, or built afresh.
+    if (slots != slots_) return patched(infos);
+    // Spent: after a list that served fewer than two calls beyond its build,
+    // the grid runs for longer each time before the next build: spheres that
+    // move this fast gain nothing from a list.
+    owner_ = nullptr;
     cooldown_ = lived_ < 2 ? std::min(kListMaxCooldown, std::max<std::size_t>(1, 2 * cooldown_)) : 0;
     wait_ = cooldown_;
+    return false;
+}
+
+// A table whose geoms changed: patched when few did (a use), else built
+// afresh at once (not left to the grid, whose merge sorts).
+bool NeighbourList::patched(const GeomTable& infos) {
+    if (patch(infos)) {
+        ++lived_;
+        ++counts_.uses;
+        ++counts_.patches;
+        return true;
+    }
+    owner_ = nullptr;
     return false;
 }
 

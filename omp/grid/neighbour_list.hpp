@@ -18,10 +18,13 @@
 // order (a rank's table, owned bodies and ghosts in local order, is sorted
 // by id once a build, in tasks), so their runs reach the merge in canonical
 // order.
-// A table whose slots hold other geoms than at the build (a rank's after a
-// migration; told by a sum of hashes of each slot's index and id) is built
-// afresh at once, whatever its size.
-// Trade-off: about 32 bytes a sphere kept between calls (36 on a rank, with
+// A table whose slots hold other geoms than at the build (a rank's, every
+// step that bodies cross its boundaries or its halo; told by a sum of hashes
+// of each slot's index and id) is patched when few changed
+// (neighbour_patch.cpp): the geoms that stayed keep their references and
+// pairs, those that left drop out, and those that came get references and
+// pairs of their own; with more than an eighth changed it is built afresh.
+// Trade-off: about 36 bytes a sphere kept between calls (40 on a rank, with
 // the walk) and a rebuild whenever one sphere has moved the skin's length; a
 // scene whose spheres all fly apart fast rebuilds every call and then falls
 // back to the grid for a while.
@@ -34,12 +37,14 @@
 #include "omp/grid/geom_info.hpp"
 #include "omp/grid/grid_pairs.hpp"
 #include "omp/grid/lanes.hpp"
+#include "util/scratch_pool.hpp"
 #include "util/split_mix.hpp"
 
 namespace parode::omp {
 
 constexpr std::size_t kListBlock = 2048;     // table entries per task
 constexpr std::size_t kListMaxCooldown = 16;  // calls the grid runs alone at most, between builds
+constexpr std::size_t kMaxOutside = 64;       // enabled geoms outside the list, tested against every sphere
 
 // Which geom sits at which table index, as one number: a sum over the table
 // of a hash of (index, id), so that blocks can add theirs in any order.
@@ -49,6 +54,9 @@ inline std::uint64_t slot_digest(std::size_t i, std::uint32_t id) {
 
 // Whether a geom with these flags goes on the list: a plain, finite sphere.
 inline bool listable(std::uint32_t f) { return (f & kSphere) && !(f & kAux) && (f & kFinite); }
+
+// The radius as a float no smaller than it.
+float radius_up(double r);
 
 // An entry of a list: a walk position. Left uninitialised when the list
 // grows (the build writes every entry, on its threads).
@@ -73,6 +81,9 @@ public:
     bool build(const void* owner, const GeomTable& infos, CellGrid& grid);
     // Whether the build's pair search may use SIMD (the same lists either way).
     void set_simd(bool on) { simd_ = on; }
+    // Where a patch takes its working arrays (a slot the list path leaves
+    // free: util/scratch_pool.hpp); else a pool of its own.
+    void set_scratch(ScratchPool* pool) { pool_ = pool ? pool : &own_pool_; }
     // The enabled geoms outside the list, by table index.
     void others(const GeomTable& infos, std::vector<std::uint32_t>& out) const;
     // The table's entries in blocks of consecutive indices, one task each.
@@ -84,6 +95,7 @@ public:
 
     struct Counts {
         std::size_t builds = 0, uses = 0, declined = 0;
+        std::size_t patches = 0;  // uses that patched the list first
     };
     const Counts& counts() const { return counts_; }
     // A hash of the lists (their starts and entries): equal lists, equal hashes.
@@ -111,6 +123,17 @@ private:
     void list_members(const std::vector<Part>& parts, std::vector<std::uint32_t>& items);
     std::vector<std::uint32_t> walk_in_id_order(const GeomView& t, bool in_order);
     void link(const CellGrid& grid, const std::vector<std::uint32_t>& items, const std::uint32_t* pos, float need);
+    // neighbour_patch.cpp: the list made to cover a table whose slots changed
+    // (false: too many changed, or a geom that stayed moved the skin's length;
+    // the list is then as it was).
+    bool patch(const GeomTable& infos);
+    bool patched(const GeomTable& infos);
+    struct Patch;
+    bool new_walk(Patch& p, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& arrivals, std::size_t m) const;
+    bool new_references(Patch& p, const GeomView& t, std::size_t m);
+    std::vector<std::uint64_t> arrival_pairs(const Patch& p, std::size_t m) const;
+    bool link_arrivals(Patch& p, std::size_t m);
+    void commit(const Patch& p, std::size_t m);
 
     const void* owner_ = nullptr;
     bool simd_ = true;
@@ -123,6 +146,10 @@ private:
     std::vector<std::uint32_t> walk_, start_;
     std::vector<ListEntry> next_;
     std::vector<std::uint32_t> outside_;   // table indices not listed
+    std::vector<std::uint32_t> ids_;       // the geom id at each table index
+    double rmax_ = 0;                      // the largest listed radius at the build
+    ScratchPool own_pool_;
+    ScratchPool* pool_ = &own_pool_;
     std::uint64_t slots_ = 0;              // the table's slot_digest sum at the build
     std::size_t lived_ = 0;                // calls the current list served
     std::size_t wait_ = 0, cooldown_ = 0;  // calls to skip before the next build
