@@ -15,7 +15,8 @@ the one before a change) and `key=value` scene overrides, e.g.
 
 Per run it records from the JSON run report the ms per step over the steps
 after the first (steps_wall_s minus first_step.wall_s; the first faults in
-every buffer and distributes the bodies), the solve stage, the solver's
+every buffer and distributes the bodies), the solve stage, the collide
+stage over the steps after the first (max over ranks), the solver's
 per-colour compute and wait (max over ranks), the colour imbalance, the
 waits, the exchange's bytes, the edge cut, the partition's colour imbalance,
 peak memory per rank and the state hash; writes OUT/variants_runs.csv and
@@ -72,6 +73,8 @@ def run(args, v):
     row = {"variant": v["name"], "ranks": r["ranks"], "threads": r["threads"], "latency_us": v["latency"],
            "ms_later": 1e3 * (r["steps_wall_s"] - first) / (steps - 1), "ms_per_step": r["ms_per_step"],
            "solve_ms": 1e3 * r["stages"]["solve"] / steps, "hash": r["state_hash"],
+           "collide_ms": 1e3 * (r["stage_ranks"]["collide"]["max"] - (r.get("first_step") or {}).get("stages", {}).get("collide", 0.0))
+           / max(steps - 1, 1),
            "colour_imbalance": par.get("colour_imbalance", 1.0),
            "wait_ms_max": 1e3 * par.get("wait_seconds", {}).get("max", 0.0) / steps,
            "wait_ms_avg": 1e3 * par.get("wait_seconds", {}).get("avg", 0.0) / steps,
@@ -87,7 +90,7 @@ def run(args, v):
 
 
 def summary(rows, names):
-    keys = ["ms_later", "ms_per_step", "solve_ms", "colour_imbalance", "wait_ms_max", "wait_ms_avg",
+    keys = ["ms_later", "ms_per_step", "solve_ms", "collide_ms", "colour_imbalance", "wait_ms_max", "wait_ms_avg",
             "exchange_bytes_per_step", "edge_cut", "partition_colour_imbalance", "rss_mb_max"]
     med = {}
     for n in names:
@@ -96,11 +99,11 @@ def summary(rows, names):
         med[n]["runs"] = [round(float(r["ms_later"]), 2) for r in mine]
         med[n]["hashes"] = sorted({r["hash"] for r in mine})
     base = med[names[0]]["ms_later"]
-    lines = ["| variant | ms/step (later steps, median) | x first | solve | colour imbalance | wait max | "
-             "bytes/step | edge cut | partition colour imb. | MB/rank | runs |", "|" + "---|" * 11]
+    lines = ["| variant | ms/step (later steps, median) | x first | solve | collide (later) | colour imbalance | "
+             "wait max | bytes/step | edge cut | partition colour imb. | MB/rank | runs |", "|" + "---|" * 12]
     for n in names:
         m = med[n]
-        lines.append(f"| {n} | {m['ms_later']:.2f} | {m['ms_later'] / base:.3f} | {m['solve_ms']:.2f} | "
+        lines.append(f"| {n} | {m['ms_later']:.2f} | {m['ms_later'] / base:.3f} | {m['solve_ms']:.2f} | {m['collide_ms']:.2f} | "
                      f"{m['colour_imbalance']:.3f} | {m['wait_ms_max']:.2f} | {m['exchange_bytes_per_step']:.0f} | "
                      f"{m['edge_cut']:.0f} | {m['partition_colour_imbalance']:.3f} | {m['rss_mb_max']:.0f} | "
                      f"{m['runs']} |")

@@ -291,7 +291,11 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
     if (r.contains("collide_counts") && r["collide_counts"].contains("neighbour_list_builds")) {
         const auto& c = r["collide_counts"];
         os << "  neighbour list: built " << c["neighbour_list_builds"].get<std::int64_t>() << " times, served "
-           << c["neighbour_list_uses"].get<std::int64_t>() << " more calls\n";
+           << c["neighbour_list_uses"].get<std::int64_t>() << " more calls";
+        if (c.contains("neighbour_list_patches") && c["neighbour_list_patches"].get<std::int64_t>() > 0) {
+            os << " (" << c["neighbour_list_patches"].get<std::int64_t>() << " after patching it)";
+        }
+        os << "\n";
     }
     const auto& d = r["diagnostics"];
     os << "  wall " << wall << " s, " << r["ms_per_step"].get<double>() << " ms/step, "
