@@ -39,6 +39,30 @@ TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
     }
 }
 
+// A prism sliding sideways carries bodies across the cuts every step: each
+// rank's table of geoms changes (migrants change hands, ghosts leave and
+// enter the halo) and its neighbour list is patched rather than built again
+// (neighbour_patch.cpp). The state hash is one process's on 3 ranks and on
+// 2 ranks x 2 threads, with invariants checked every step (red when the
+// renumbered lists lose a pair; the arrivals' own pairs are
+// test_neighbour_list's: here new ghosts enter at the halo's edge, beyond
+// touching an owned body while the list lives).
+TEST_F(Mpi, BodiesCrossingTheCutsPatchTheListSameStateHash) {
+    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --steps 30 --collide grid"
+                               " --solver parallel -q --check-invariants 1 --set catoms.count=8000"
+                               " --set catoms.velocity=[4,1,0]";
+    ASSERT_EQ(run(0, common + " --threads 1 --report " + path("one.json")).rc, 0);
+    for (const Case c : {Case{"", 3, 1}, Case{"", 2, 2}}) {
+        const std::string name = "cross" + std::to_string(c.ranks) + "x" + std::to_string(c.threads) + ".json";
+        const Result r = run(c.ranks, common + " --threads " + std::to_string(c.threads) + " --report " + path(name));
+        ASSERT_EQ(r.rc, 0) << r.err;
+        const nlohmann::json rep = report(name);
+        EXPECT_EQ(rep["state_hash"], report("one.json")["state_hash"]) << c.ranks << " ranks x " << c.threads << " threads";
+        EXPECT_GT(rep["parallel"]["migrations"].get<long>(), 0) << rep["parallel"].dump();
+        EXPECT_GT(rep["collide_counts"]["neighbour_list_patches"].get<long>(), 0) << rep["collide_counts"].dump();
+    }
+}
+
 // The processes cutting the bisection's tree together (partitioner
 // "bisection"; by default beyond partition.hpp's kGatherUnits cells) keep no
 // map of cells: the same state hash as one process on 2 and 3 processes,

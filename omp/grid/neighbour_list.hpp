@@ -129,6 +129,8 @@ private:
     bool patch(const GeomTable& infos);
     bool patched(const GeomTable& infos);
     struct Patch;
+    // The table index at walk position w (walk_ empty: the table is in id order).
+    std::uint32_t walked_slot(std::size_t w) const { return walk_.empty() ? static_cast<std::uint32_t>(w) : walk_[w]; }
     bool new_walk(Patch& p, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& arrivals, std::size_t m) const;
     bool new_references(Patch& p, const GeomView& t, std::size_t m);
     std::vector<std::uint64_t> arrival_pairs(const Patch& p, std::size_t m) const;

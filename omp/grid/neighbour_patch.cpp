@@ -112,7 +112,7 @@ struct NeighbourList::Patch {
 bool NeighbourList::patch(const GeomTable& infos) {
     const GeomView t = infos.view();
     const std::size_t m = infos.size(), n = n_;
-    const auto old_slot = [this](std::size_t w) { return walk_.empty() ? static_cast<std::uint32_t>(w) : walk_[w]; };
+    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     // The table indices whose geom changed, as (id, index).
     std::vector<std::pair<std::uint32_t, std::uint32_t>> changed;
     std::uint64_t slots = 0;
@@ -154,7 +154,7 @@ bool NeighbourList::patch(const GeomTable& infos) {
 bool NeighbourList::new_walk(Patch& p, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& arrivals,
                              std::size_t m) const {
     const std::size_t n = n_;
-    const auto old_slot = [this](std::size_t w) { return walk_.empty() ? static_cast<std::uint32_t>(w) : walk_[w]; };
+    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     std::size_t a = 0, wn = 0;
     for (std::size_t w = 0; w <= n; ++w) {
         const std::uint32_t id = w < n ? ids_[old_slot(w)] : kNone;
@@ -177,7 +177,7 @@ bool NeighbourList::new_walk(Patch& p, const std::vector<std::pair<std::uint32_t
 // References: kept for the geoms that stayed (which must still be near
 // them), their position for the arrivals; and the geoms not listed.
 bool NeighbourList::new_references(Patch& p, const GeomView& t, std::size_t m) {
-    const auto old_slot = [this](std::size_t w) { return walk_.empty() ? static_cast<std::uint32_t>(w) : walk_[w]; };
+    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     const float rmax = radius_up(rmax_);
     const double skin2 = skin_ * skin_;
     for (std::size_t wn = 0; wn < m; ++wn) {
