@@ -19,6 +19,7 @@
 #include <cmath>
 
 #include "omp/grid/neighbour_list.hpp"
+#include "util/cell_hash.hpp"
 #include "util/scratch.hpp"
 
 namespace parode::omp {
@@ -55,15 +56,12 @@ private:
     std::size_t mask_ = 0;
 };
 
-// Cells of edge `edge` (21 bits of each coordinate: far cells that share a
-// key only add candidates, every one is tested).
+// Cells of edge `edge` (util/cell_hash.hpp).
 struct Cells {
     double edge;
-    std::int64_t index(double v) const { return static_cast<std::int64_t>(std::floor(v / edge)); }
+    std::int64_t index(double v) const { return cell_index(v / edge); }
     static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
-        constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-        return ((static_cast<std::uint64_t>(x) & kMask) << 42) | ((static_cast<std::uint64_t>(y) & kMask) << 21) |
-               (static_cast<std::uint64_t>(z) & kMask);
+        return static_cast<std::uint64_t>(cell_hash_key(x, y, z));
     }
     std::uint64_t key_of(const float* r) const { return key(index(r[0]), index(r[1]), index(r[2])); }
 };
@@ -112,7 +110,6 @@ struct NeighbourList::Patch {
 bool NeighbourList::patch(const GeomTable& infos) {
     const GeomView t = infos.view();
     const std::size_t m = infos.size(), n = n_;
-    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     // The table indices whose geom changed, as (id, index).
     std::vector<std::pair<std::uint32_t, std::uint32_t>> changed;
     std::uint64_t slots = 0;
@@ -131,16 +128,16 @@ bool NeighbourList::patch(const GeomTable& infos) {
     }
     for (std::size_t s = m; s < n; ++s) p.moved[s] = 1;
     // Each old walk position's table index now (kNone: left), and the arrivals.
-    for (std::size_t w = 0; w < n; ++w) p.now[w] = p.moved[old_slot(w)] ? kNone : old_slot(w);
+    for (std::size_t w = 0; w < n; ++w) p.now[w] = p.moved[walked_slot(w)] ? kNone : walked_slot(w);
     std::vector<std::pair<std::uint32_t, std::uint32_t>> arrivals;  // (id, table index)
     for (const auto& [id, j] : changed) {
         std::size_t lo = 0, hi = n;  // the old walk is in id order
         while (lo < hi) {
             const std::size_t mid = (lo + hi) / 2;
-            if (ids_[old_slot(mid)] < id) lo = mid + 1;
+            if (ids_[walked_slot(mid)] < id) lo = mid + 1;
             else hi = mid;
         }
-        if (lo < n && ids_[old_slot(lo)] == id) p.now[lo] = j;
+        if (lo < n && ids_[walked_slot(lo)] == id) p.now[lo] = j;
         else arrivals.emplace_back(id, j);
     }
     std::sort(arrivals.begin(), arrivals.end());
@@ -154,10 +151,9 @@ bool NeighbourList::patch(const GeomTable& infos) {
 bool NeighbourList::new_walk(Patch& p, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& arrivals,
                              std::size_t m) const {
     const std::size_t n = n_;
-    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     std::size_t a = 0, wn = 0;
     for (std::size_t w = 0; w <= n; ++w) {
-        const std::uint32_t id = w < n ? ids_[old_slot(w)] : kNone;
+        const std::uint32_t id = w < n ? ids_[walked_slot(w)] : kNone;
         for (; a < arrivals.size() && (w == n || arrivals[a].first < id); ++a) {
             if (wn == m) return false;
             p.walk[wn] = arrivals[a].second;
@@ -177,7 +173,6 @@ bool NeighbourList::new_walk(Patch& p, const std::vector<std::pair<std::uint32_t
 // References: kept for the geoms that stayed (which must still be near
 // them), their position for the arrivals; and the geoms not listed.
 bool NeighbourList::new_references(Patch& p, const GeomView& t, std::size_t m) {
-    const auto old_slot = [this](std::size_t w) { return walked_slot(w); };
     const float rmax = radius_up(rmax_);
     const double skin2 = skin_ * skin_;
     for (std::size_t wn = 0; wn < m; ++wn) {
@@ -186,7 +181,7 @@ bool NeighbourList::new_references(Patch& p, const GeomView& t, std::size_t m) {
         float* r = p.ref + 4 * j;
         p.ids[j] = g.id;
         if (p.from[wn] != kNone) {
-            const float* old = ref_.data() + 4 * old_slot(p.from[wn]);
+            const float* old = ref_.data() + 4 * walked_slot(p.from[wn]);
             const bool listed = old[3] >= 0;
             const double dx = g.p[0] - old[0], dy = g.p[1] - old[1], dz = g.p[2] - old[2];
             const bool near = dx * dx + dy * dy + dz * dz <= skin2 && g.p[3] <= old[3];

@@ -20,6 +20,7 @@
 
 #include "programs/catom_state.hpp"
 #include "programs/program_pass.hpp"
+#include "util/cell_hash.hpp"
 #include "util/id_map.hpp"
 
 namespace parode {
@@ -38,21 +39,6 @@ bool within(const Vec3& a, const Vec3& b, double bound) {
     if (d2 > bound * bound * (1 + 1e-9)) return false;
     const double d = std::sqrt(d2);
     return d > 0 && d <= bound;
-}
-
-// The cell index of coordinate v (cells of edge 1 from 0): floor, kept
-// within +-2^40 (a NaN gives 0) so that the conversion is always defined.
-std::int64_t cell_index(double v) {
-    constexpr double kMost = 1099511627776.0;  // 2^40
-    return static_cast<std::int64_t>(std::floor(std::clamp(v == v ? v : 0.0, -kMost, kMost)));
-}
-
-// A cell's key in the arrivals' hash grid: 21 bits of each coordinate
-// (cells 2^21 apart share a key, which only adds candidates to test).
-std::int64_t hash_key(std::int64_t x, std::int64_t y, std::int64_t z) {
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    const auto bits = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & kMask; };
-    return static_cast<std::int64_t>((bits(x) << 42) | (bits(y) << 21) | bits(z));
 }
 
 }  // namespace
@@ -195,7 +181,7 @@ void ProgramPass::add_arrivals() {
         std::int64_t c[3];
         for (int d = 0; d < 3; ++d) c[d] = cell_index(x[d] / edge);
         for (int d = 0; d < 27; ++d) {
-            const auto cell = arrived_cells_.find(hash_key(c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1));
+            const auto cell = arrived_cells_.find(cell_hash_key(c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1));
             if (cell == arrived_cells_.end()) continue;
             for (std::uint32_t b : cell->second) {
                 if (within(x, extra_.at(b).x, ra + catom_radius(scene_, ids_[b]))) found.push_back(b);
@@ -205,7 +191,7 @@ void ProgramPass::add_arrivals() {
         e.x = x;
         e.cand.insert(e.cand.end(), found.begin(), found.end());
         for (std::uint32_t b : found) extra_[b].cand.push_back(a);
-        arrived_cells_[hash_key(c[0], c[1], c[2])].push_back(a);
+        arrived_cells_[cell_hash_key(c[0], c[1], c[2])].push_back(a);
         lidx_[a] = kArrived;
         ++arrivals_;
     }
@@ -235,7 +221,7 @@ void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_
             continue;
         }
         for (std::int64_t cz = z0; cz <= z1; ++cz) {
-            const auto run = std::equal_range(keys_.begin(), keys_.end(), hash_key(cx, cy, cz));
+            const auto run = std::equal_range(keys_.begin(), keys_.end(), cell_hash_key(cx, cy, cz));
             test(static_cast<std::size_t>(run.first - keys_.begin()), static_cast<std::size_t>(run.second - keys_.begin()));
         }
     }
@@ -317,7 +303,7 @@ void ProgramPass::grid_listed() {
         std::vector<std::pair<std::int64_t, std::uint32_t>> sorted(n);
         for (std::size_t j = 0; j < n; ++j) {
             const Vec3& x = xl_[plocal_[j]];
-            sorted[j] = {hash_key(cell(x, 0), cell(x, 1), cell(x, 2)), static_cast<std::uint32_t>(j)};
+            sorted[j] = {cell_hash_key(cell(x, 0), cell(x, 1), cell(x, 2)), static_cast<std::uint32_t>(j)};
         }
         std::sort(sorted.begin(), sorted.end());
         keys_.resize(n);
