@@ -43,21 +43,19 @@ bool within(const Vec3& a, const Vec3& b, double bound) {
 
 }  // namespace
 
-// The catoms held here this step (ascending catom index), their local
-// indices, and the owned ones; unchanged while the world's bodies are.
+// The catoms held here this step (gids ascending), their local indices,
+// and the owned ones; unchanged while the world's bodies are.
 void ProgramPass::locate(const World& world) {
+    world_ = &world;
     if (world.generation() == located_) return;
     located_ = world.generation();
     relocated_ = true;
-    for_ranges(exec_.loops(), present_.size(), 4096, [&](std::size_t j0, std::size_t j1) {
-        for (std::size_t j = j0; j < j1; ++j) local_k_[present_[j]] = IdMap::kNone, owned_now_[present_[j]] = 0;
-    });
     const std::size_t nb = world.body_count(), chunks = chunk_count(exec_.loops(), nb, 4096);
     std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> part(chunks);
     exec_.loops().run(chunks, nb, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(nb, chunks, c); i < chunk_begin(nb, chunks, c + 1); ++i) {
             const std::uint32_t g = world.gid(i);
-            if (g < kof_.size() && kof_[g] != IdMap::kNone) part[c].emplace_back(kof_[g], static_cast<std::uint32_t>(i));
+            if (scene_.body_is_catom(g)) part[c].emplace_back(g, static_cast<std::uint32_t>(i));
         }
     });
     std::vector<std::pair<std::uint32_t, std::uint32_t>> held;
@@ -66,16 +64,20 @@ void ProgramPass::locate(const World& world) {
     const std::size_t n = held.size(), hchunks = chunk_count(exec_.loops(), n, 4096);
     present_.resize(n);
     plocal_.resize(n);
-    std::vector<std::vector<std::uint32_t>> owned(hchunks);
+    std::vector<std::vector<std::uint32_t>> owned(hchunks);  // places in held
     exec_.loops().run(hchunks, n, [&](std::size_t c) {
         for (std::size_t j = chunk_begin(n, hchunks, c); j < chunk_begin(n, hchunks, c + 1); ++j) {
-            const auto [k, i] = held[j];
-            present_[j] = k, plocal_[j] = i, local_k_[k] = i;
-            if (!world.ghost(i)) owned[c].push_back(k), owned_now_[k] = 1;
+            const auto [g, i] = held[j];
+            present_[j] = g, plocal_[j] = i;
+            if (!world.ghost(i)) owned[c].push_back(static_cast<std::uint32_t>(j));
         }
     });
     owned_.clear();
-    for (const auto& o : owned) owned_.insert(owned_.end(), o.begin(), o.end());
+    owned_local_.clear();
+    for (const auto& o : owned) {
+        for (std::uint32_t j : o) owned_.push_back(held[j].first), owned_local_.push_back(held[j].second);
+    }
+    owned_rec_.clear();  // bound again once the records are (hold_records)
 }
 
 // The held catoms' centres (by local index), and their candidates brought up
@@ -89,47 +91,55 @@ void ProgramPass::update_candidates(const World& world) {
             xl_[plocal_[j]] = {p[0], p[1], p[2]};
         }
     });
-    if (lidx_.empty()) lidx_.assign(ids_.size(), IdMap::kNone);
     if (counts_.lists == 0 || arrivals_ > n / 8 + 64) return list_candidates();
     add_arrivals();
     if (stale()) list_candidates();
 }
 
-// The neighbours of the catoms `which` (ascending catom indices, held here)
-// into now_, from their candidates; the others' lists are empty. Chunks of
-// catoms fill their own lists, joined in order.
-void ProgramPass::find_neighbours(const std::vector<std::uint32_t>& which) {
+// The neighbours of every owned catom into now_ (keys: owned_), from their
+// candidates, and each one's place in last step's lists (before_at_).
+// Chunks of catoms fill their own lists, joined in order.
+void ProgramPass::find_neighbours() {
     std::swap(before_, now_);
-    const std::size_t n = which.size(), chunks = chunk_count(exec_.loops(), n, 1024);
+    const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
-    now_.at.assign(ids_.size() + 1, 0);
+    now_.keys = owned_;
+    now_.at.assign(n + 1, 0);
+    before_at_.resize(n);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
-            const std::uint32_t k = which[o];
+        const std::size_t o0 = chunk_begin(n, chunks, c), o1 = chunk_begin(n, chunks, c + 1);
+        // Last step's keys, ascending as owned_ is: one search a chunk, then a walk.
+        auto b = std::lower_bound(before_.keys.begin(), before_.keys.end(), o0 < o1 ? owned_[o0] : 0);
+        for (std::size_t o = o0; o < o1; ++o) {
             const std::size_t from = mine.size();
-            neighbours_of(k, mine);
-            now_.at[k + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            neighbours_of(owned_[o], owned_local_[o], mine);
+            now_.at[o + 1] = static_cast<std::uint32_t>(mine.size() - from);
+            while (b != before_.keys.end() && *b < owned_[o]) ++b;
+            const bool had = b != before_.keys.end() && *b == owned_[o];
+            before_at_[o] = had ? static_cast<std::uint32_t>(b - before_.keys.begin()) : IdMap::kNone;
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t k = 0; k < ids_.size(); ++k) now_.at[k + 1] += now_.at[k];
+    for (std::size_t o = 0; o < n; ++o) now_.at[o + 1] += now_.at[o];
     join(part, now_.ids);
 }
 
-// Held catom k's neighbours now (catom indices, ascending), appended to `out`.
-void ProgramPass::neighbours_of(std::uint32_t k, std::vector<std::uint32_t>& out) const {
+// Held catom g's neighbours now (gids, ascending), appended to `out`;
+// `local`: its local index.
+void ProgramPass::neighbours_of(std::uint32_t g, std::uint32_t local, std::vector<std::uint32_t>& out) const {
     const std::size_t from = out.size();
-    const Vec3& x = xl_[local_k_[k]];
-    const double rk = catom_radius(scene_, ids_[k]) + reach_;
+    const Vec3& x = xl_[local];
+    const double rg = catom_radius(scene_, g) + reach_;
     const auto test = [&](std::uint32_t c) {
-        if (local_k_[c] != IdMap::kNone && within(x, xl_[local_k_[c]], rk + catom_radius(scene_, ids_[c]))) out.push_back(c);
+        const std::uint32_t lc = world_->local_of(c);
+        if (lc != IdMap::kNone && within(x, xl_[lc], rg + catom_radius(scene_, c))) out.push_back(c);
     };
-    const std::uint32_t l = lidx_[k];
+    const std::uint32_t l = lidx_.find(g);
     if (l < kArrived) {
         for (std::uint32_t q = cand_.at[l]; q < cand_.at[l + 1]; ++q) test(cand_.ids[q]);
     }
-    const auto e = extra_.find(k);
+    const auto e = extra_.find(g);
     if (e == extra_.end()) return;  // the listing's candidates alone: ascending already
     for (std::uint32_t c : e->second.cand) test(c);
     std::sort(out.begin() + static_cast<std::ptrdiff_t>(from), out.end());
@@ -147,9 +157,9 @@ void ProgramPass::join(const std::vector<std::vector<std::uint32_t>>& part, std:
 }
 
 // A held catom's reference position.
-const Vec3& ProgramPass::reference(std::uint32_t k) const {
-    const std::uint32_t l = lidx_[k];
-    return l < kArrived ? listed_x_[l] : extra_.at(k).x;
+const Vec3& ProgramPass::reference(std::uint32_t g) const {
+    const std::uint32_t l = lidx_.find(g);
+    return l < kArrived ? listed_x_[l] : extra_.at(g).x;
 }
 
 // Whether a held catom is half the skin from its reference position.
@@ -166,16 +176,16 @@ bool ProgramPass::stale() const {
 }
 
 // Held catoms without a reference position (arrived since the listing, in
-// catom order): each one's candidates among all catoms with one (itself
+// gid order): each one's candidates among all catoms with one (itself
 // added to theirs), then its reference is where it is now.
 void ProgramPass::add_arrivals() {
     const double edge = edge_ + skin_;
     std::vector<std::uint32_t> found;
     for (std::size_t j = 0; j < present_.size(); ++j) {
         const std::uint32_t a = present_[j];
-        if (lidx_[a] != IdMap::kNone) continue;
+        if (lidx_.find(a) != IdMap::kNone) continue;
         const Vec3& x = xl_[plocal_[j]];
-        const double ra = catom_radius(scene_, ids_[a]) + reach_ + skin_;
+        const double ra = catom_radius(scene_, a) + reach_ + skin_;
         found.clear();
         listed_near(x, ra, found);
         std::int64_t c[3];
@@ -184,7 +194,7 @@ void ProgramPass::add_arrivals() {
             const auto cell = arrived_cells_.find(cell_hash_key(c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1));
             if (cell == arrived_cells_.end()) continue;
             for (std::uint32_t b : cell->second) {
-                if (within(x, extra_.at(b).x, ra + catom_radius(scene_, ids_[b]))) found.push_back(b);
+                if (within(x, extra_.at(b).x, ra + catom_radius(scene_, b))) found.push_back(b);
             }
         }
         Extra& e = extra_[a];
@@ -192,13 +202,13 @@ void ProgramPass::add_arrivals() {
         e.cand.insert(e.cand.end(), found.begin(), found.end());
         for (std::uint32_t b : found) extra_[b].cand.push_back(a);
         arrived_cells_[cell_hash_key(c[0], c[1], c[2])].push_back(a);
-        lidx_[a] = kArrived;
+        lidx_.set(a, kArrived);
         ++arrivals_;
     }
 }
 
 // The listed catoms within `ra` plus their radius of `x` (by their
-// reference positions), appended to `out` as catom indices: the 27 cells
+// reference positions), appended to `out` as gids: the 27 cells
 // around x's, as 9 runs of 3 cells along z (consecutive in the listing).
 void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const {
     const double edge = edge_ + skin_;
@@ -233,8 +243,6 @@ void ProgramPass::listed_near(const Vec3& x, double ra, std::vector<std::uint32_
 // catom, O(N); else by cell key), each then looking at the 27 cells around
 // its own.
 void ProgramPass::list_candidates() {
-    for (std::uint32_t k : listed_k_) lidx_[k] = IdMap::kNone;
-    for (const auto& e : extra_) lidx_[e.first] = IdMap::kNone;
     extra_.clear();
     arrived_cells_.clear();
     arrivals_ = 0;
@@ -250,14 +258,14 @@ void ProgramPass::list_candidates() {
         for (std::size_t j = chunk_begin(n, chunks, c); j < chunk_begin(n, chunks, c + 1); ++j) {
             const std::size_t from = mine.size();
             const Vec3& x = listed_x_[j] = xl_[plocal_[j]];
-            listed_near(x, catom_radius(scene_, ids_[present_[j]]) + reach_ + skin_, mine);
+            listed_near(x, catom_radius(scene_, present_[j]) + reach_ + skin_, mine);
             std::sort(mine.begin() + static_cast<std::ptrdiff_t>(from), mine.end());
             cand_.at[j + 1] = static_cast<std::uint32_t>(mine.size() - from);
-            lidx_[present_[j]] = static_cast<std::uint32_t>(j);  // one catom a slot: no two threads write the same
         }
         part[c] = std::move(mine);
     });
-    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j];
+    lidx_.reset(scene_.body_count(), n);
+    for (std::size_t j = 0; j < n; ++j) cand_.at[j + 1] += cand_.at[j], lidx_.set(present_[j], static_cast<std::uint32_t>(j));
     join(part, cand_.ids);
     ++counts_.lists;
 }
@@ -280,7 +288,7 @@ void ProgramPass::grid_listed() {
     }
     const auto cell = [&](const Vec3& p, int a) { return cell_index((p[a] - low_[a]) / edge); };
     const auto entry = [&](std::size_t j) {
-        const double r = catom_radius(scene_, ids_[present_[j]]);
+        const double r = catom_radius(scene_, present_[j]);
         float rf = static_cast<float>(r);
         if (static_cast<double>(rf) < r) rf = std::nextafter(rf, 2 * rf + 1);  // never below the radius
         return Listed{xl_[plocal_[j]], rf, present_[j]};

@@ -23,13 +23,11 @@ namespace {
 
 const char* kEventNames[] = {"start", "neighbour lost", "neighbour gained", "message", "timer"};
 
-// The neighbours of one catom as the pass keeps them: catom indices (or,
-// when `begin` is null, a function listing them on demand into a scratch
-// vector), their gids and local indices, and the world to read positions from.
+// The neighbours of one catom as the pass keeps them: gids (or, when
+// `begin` is null, a function listing them on demand into a scratch
+// vector), and the world to read positions from.
 struct NeighbourRange {
     const std::uint32_t *begin, *end;
-    const std::vector<std::uint32_t>& gids;
-    const std::vector<std::uint32_t>& locals;
     const World& world;
     std::function<void(std::vector<std::uint32_t>&)> list = nullptr;
     std::vector<std::uint32_t>* listed = nullptr;
@@ -103,10 +101,10 @@ private:
             j0 = range_.listed->data(), j1 = j0 + range_.listed->size();
         }
         for (const std::uint32_t* j = j0; j != j1; ++j) {
-            const dReal* q = dBodyGetPosition(range_.world.body(range_.locals[*j]));
+            const dReal* q = dBodyGetPosition(range_.world.body(range_.world.local_of(*j)));
             const Vec3 d{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
             const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            nbrs_.push_back({range_.gids[*j], {d[0] / len, d[1] / len, d[2] / len}, len});
+            nbrs_.push_back({*j, {d[0] / len, d[1] / len, d[2] / len}, len});
         }
         built_ = true;
     }
@@ -206,13 +204,13 @@ std::uint64_t catom_digest(std::uint32_t id, const ProgramPass::Catom& c, std::v
     return h.value();
 }
 
-// Ids of the sorted range [a0, a1) not in [b0, b1), as gids, into `out`.
+// Ids of the sorted range [a0, a1) not in [b0, b1), into `out`.
 void missing(const std::uint32_t* a0, const std::uint32_t* a1, const std::uint32_t* b0, const std::uint32_t* b1,
-             const std::vector<std::uint32_t>& gid, std::vector<std::uint32_t>& out) {
+             std::vector<std::uint32_t>& out) {
     out.clear();
     for (; a0 != a1; ++a0) {
         while (b0 != b1 && *b0 < *a0) ++b0;
-        if (b0 == b1 || *b0 != *a0) out.push_back(gid[*a0]);
+        if (b0 == b1 || *b0 != *a0) out.push_back(*a0);
     }
 }
 
@@ -231,32 +229,65 @@ double skin_fraction() {
 
 }  // namespace
 
-ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
-    : scene_(scene), exec_(exec), spec_(&load_program(scene.program.name)) {
-    kof_.assign(scene.body_count(), IdMap::kNone);
-    for (std::size_t g = 0; g < scene.body_count(); ++g) {
-        if (!scene.body_is_catom(g)) continue;
-        kof_[g] = static_cast<std::uint32_t>(ids_.size());
-        ids_.push_back(static_cast<std::uint32_t>(g));
+ProgramPass::Numbering::Numbering(const Scene& scene)
+    : first_generated_(scene.bodies.size()), generated_(scene.catoms.count) {
+    for (std::size_t g = 0; g < scene.bodies.size(); ++g) {
+        if (scene.bodies[g].catom) listed_.push_back(static_cast<std::uint32_t>(g));
     }
+}
+
+std::uint32_t ProgramPass::Numbering::gid(std::size_t k) const {
+    return static_cast<std::uint32_t>(k < listed_.size() ? listed_[k] : first_generated_ + (k - listed_.size()));
+}
+
+std::size_t ProgramPass::Numbering::index(std::uint32_t g) const {
+    if (g >= first_generated_) return listed_.size() + (g - first_generated_);
+    return static_cast<std::size_t>(std::lower_bound(listed_.begin(), listed_.end(), g) - listed_.begin());
+}
+
+std::uint32_t ProgramPass::Csr::place(std::uint32_t g) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), g);
+    return it != keys.end() && *it == g ? static_cast<std::uint32_t>(it - keys.begin()) : IdMap::kNone;
+}
+
+ProgramPass::ProgramPass(const Scene& scene, Execution& exec)
+    : scene_(scene), exec_(exec), spec_(&load_program(scene.program.name)), numbering_(scene) {
     reach_ = scene.program_reach();
     edge_ = scene.program_range();  // the scene's radii: the cell edge is fixed for the run
     skin_ = skin_fraction() * edge_;
-    catoms_.resize(ids_.size());  // records made for the catoms this process owns (hold_records)
-    local_k_.assign(ids_.size(), IdMap::kNone);
-    owned_now_.assign(ids_.size(), 0);
-    dirty_.assign(ids_.size(), 1);
-    digest_.assign(ids_.size(), 0);
-    fresh_record(0);  // a program that makes no object fails here, before the run
+    fresh_record(numbering_.count() ? numbering_.gid(0) : 0);  // a program that makes no object fails here, before the run
 }
 
-// A record as catom k starts: a new program object, the scene's magnets.
-std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::size_t k) const {
+// A record as catom g starts: a new program object, the scene's magnets.
+std::unique_ptr<ProgramPass::Catom> ProgramPass::fresh_record(std::uint32_t g) const {
     auto c = std::make_unique<Catom>();
     c->program = spec_->make();
     if (!c->program) throw ProgramError("program " + spec_->name + " made no program object");
-    c->magnets = ids_.empty() || scene_.body_magnets(ids_[k]);
+    c->magnets = numbering_.count() == 0 || scene_.body_magnets(g);
     return c;
+}
+
+std::vector<std::uint32_t> ProgramPass::catom_ids() const {
+    std::vector<std::uint32_t> out(numbering_.count());
+    for (std::size_t k = 0; k < out.size(); ++k) out[k] = numbering_.gid(k);
+    return out;
+}
+
+// Whether this process owns catom g (the world as last located).
+bool ProgramPass::owned_here(const World& world, std::uint32_t g) const {
+    const std::uint32_t l = world.local_of(g);
+    return l != IdMap::kNone && !world.ghost(l);
+}
+
+ProgramPass::Catom* ProgramPass::record(std::uint32_t g) const {
+    const auto it = records_.find(g);
+    return it == records_.end() ? nullptr : it->second.get();
+}
+
+// The owned catoms' records beside them, for the loops over them.
+void ProgramPass::bind_owned() {
+    owned_rec_.resize(owned_.size());
+    for (std::size_t o = 0; o < owned_.size(); ++o) owned_rec_[o] = record(owned_[o]);
 }
 
 ProgramCounts ProgramPass::totals() const {
@@ -279,19 +310,20 @@ void ProgramPass::prepare(const World& world) {
 // object); the first failure is rethrown.
 void ProgramPass::hold_records() {
     std::vector<std::uint32_t> make;
-    for (std::uint32_t k : owned_) {
-        if (catoms_[k]) continue;
+    for (std::uint32_t g : owned_) {
+        if (records_.count(g)) continue;
         if (!unstarted_) {
-            throw std::logic_error("catom " + std::to_string(ids_[k]) + " came to this process without its program state");
+            throw std::logic_error("catom " + std::to_string(g) + " came to this process without its program state");
         }
-        make.push_back(k);
+        make.push_back(g);
     }
     const std::size_t n = make.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::exception_ptr> failed(chunks);
+    std::vector<std::unique_ptr<Catom>> made(n);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         try {
             for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
-                catoms_[make[i]] = fresh_record(make[i]);
+                made[i] = fresh_record(make[i]);
             }
         } catch (...) {
             failed[c] = std::current_exception();
@@ -300,14 +332,18 @@ void ProgramPass::hold_records() {
     for (const std::exception_ptr& e : failed) {
         if (e) std::rethrow_exception(e);
     }
+    records_.reserve(records_.size() + n);
+    for (std::size_t i = 0; i < n; ++i) records_[make[i]] = std::move(made[i]);
+    bind_owned();
 }
 
 ProgramPass::~ProgramPass() = default;
 
 // Only catoms with something to handle run (not started yet, a neighbour
 // lost or gained, mail, a timer due): the others' records stay as they are.
+// `which`: places in owned_, ascending.
 void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time) {
-    const bool diff = spec_->neighbour_events, first = before_.at.empty();
+    const bool diff = spec_->neighbour_events;
     const std::size_t n = which.size(), chunks = chunk_count(exec_.loops(), n, 256);
     std::vector<std::vector<std::uint32_t>> ran(chunks);
     exec_.loops().run(chunks, n, [&](std::size_t ch) {
@@ -315,24 +351,24 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
         std::vector<Neighbour> scratch;
         std::vector<std::uint32_t> listed;
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
-            const std::uint32_t k = which[o];
-            Catom& c = *catoms_[k];
-            NeighbourRange range{nullptr, nullptr, ids_, local_k_, world};
+            const std::uint32_t at = which[o], g = owned_[at], local = owned_local_[at];
+            Catom& c = *owned_rec_[at];
+            NeighbourRange range{nullptr, nullptr, world};
             if (diff) {
-                range.begin = now_.ids.data() + now_.at[k], range.end = now_.ids.data() + now_.at[k + 1];
-                neighbour_changes(k, first, lost, gained);
+                range.begin = now_.ids.data() + now_.at[at], range.end = now_.ids.data() + now_.at[at + 1];
+                neighbour_changes(at, lost, gained);
             } else {  // worked out only if a handler asks
-                range.list = [this, k](std::vector<std::uint32_t>& out) { neighbours_of(k, out); };
+                range.list = [this, g, local](std::vector<std::uint32_t>& out) { neighbours_of(g, local, out); };
                 range.listed = &listed;
             }
             if (!c.outbox.empty()) c.outbox.clear();
             const bool due = c.timer_at >= 0 && time >= c.timer_at - 1e-12;
             if (c.started && lost.empty() && gained.empty() && c.inbox.empty() && !due) continue;
             c.error.clear();
-            Context ctx(c, ids_[k], world.body(local_k_[k]), step_, time, scene_, range, scratch);
+            Context ctx(c, g, world.body(local), step_, time, scene_, range, scratch);
             run_catom(c, ctx, lost, gained, time);
-            dirty_[k] = 1;  // one byte per catom: no two threads write the same
-            ran[ch].push_back(k);
+            c.dirty = true;  // its own record: no two threads write the same
+            ran[ch].push_back(at);
         }
     });
     arrived_.clear();
@@ -340,31 +376,34 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
     for (const auto& r : ran) ran_.insert(ran_.end(), r.begin(), r.end());  // ascending: chunks in order
 }
 
-// The neighbours catom k lost and gained since last step (by gid): against
-// its list of last step, or the one it arrived with from another process.
-void ProgramPass::neighbour_changes(std::uint32_t k, bool first, std::vector<std::uint32_t>& lost,
+// The neighbours the owned catom at place o lost and gained since last step:
+// against its list of last step, or the one it arrived with from another
+// process.
+void ProgramPass::neighbour_changes(std::size_t o, std::vector<std::uint32_t>& lost,
                                    std::vector<std::uint32_t>& gained) const {
-    const std::uint32_t* n0 = now_.ids.data() + now_.at[k];
-    const std::uint32_t* n1 = now_.ids.data() + now_.at[k + 1];
+    const std::uint32_t* n0 = now_.ids.data() + now_.at[o];
+    const std::uint32_t* n1 = now_.ids.data() + now_.at[o + 1];
     const std::uint32_t *b0 = nullptr, *b1 = nullptr;
-    if (const auto a = arrived_.find(k); a != arrived_.end()) {
+    if (const auto a = arrived_.find(owned_[o]); a != arrived_.end()) {
         b0 = a->second.data(), b1 = b0 + a->second.size();
-    } else if (!first) {
-        b0 = before_.ids.data() + before_.at[k], b1 = before_.ids.data() + before_.at[k + 1];
+    } else if (const std::uint32_t b = before_at_[o]; b != IdMap::kNone) {
+        b0 = before_.ids.data() + before_.at[b], b1 = before_.ids.data() + before_.at[b + 1];
     }
-    missing(b0, b1, n0, n1, ids_, lost);
-    missing(n0, n1, b0, b1, ids_, gained);
+    missing(b0, b1, n0, n1, lost);
+    missing(n0, n1, b0, b1, gained);
 }
 
 // The owned catoms with an event other than a neighbour's (not started yet,
-// mail, a timer due), ascending.
+// mail, a timer due): their places in owned_, ascending.
 std::vector<std::uint32_t> ProgramPass::due(double time) const {
     const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 4096);
     std::vector<std::vector<std::uint32_t>> part(chunks);
     exec_.loops().run(chunks, n, [&](std::size_t ch) {
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
-            const Catom& c = *catoms_[owned_[o]];
-            if (!c.started || !c.inbox.empty() || (c.timer_at >= 0 && time >= c.timer_at - 1e-12)) part[ch].push_back(owned_[o]);
+            const Catom& c = *owned_rec_[o];
+            if (!c.started || !c.inbox.empty() || (c.timer_at >= 0 && time >= c.timer_at - 1e-12)) {
+                part[ch].push_back(static_cast<std::uint32_t>(o));
+            }
         }
     });
     std::vector<std::uint32_t> out;
@@ -378,12 +417,12 @@ std::vector<std::uint32_t> ProgramPass::due(double time) const {
 void ProgramPass::finish_step(World& world) {
     // Only catoms that ran have mail to clear (mail makes a catom run), an
     // outbox, events, a failure or switched magnets.
-    for (std::uint32_t k : ran_) catoms_[k]->inbox.clear();
-    std::vector<std::pair<std::uint32_t, std::string>> failed;  // (catom, what)
+    for (std::uint32_t o : ran_) owned_rec_[o]->inbox.clear();
+    std::vector<std::pair<std::uint32_t, std::string>> failed;  // (catom's gid, what)
     std::int64_t counted[2] = {0, 0};  // messages, events
-    for (std::uint32_t k : ran_) {
-        Catom& c = *catoms_[k];
-        if (!c.error.empty()) failed.emplace_back(k, c.error);
+    for (std::uint32_t o : ran_) {
+        Catom& c = *owned_rec_[o];
+        if (!c.error.empty()) failed.emplace_back(owned_[o], c.error);
         counted[0] += static_cast<std::int64_t>(c.outbox.size());
         counted[1] += c.events;
         c.events = 0;
@@ -413,20 +452,20 @@ void ProgramPass::refresh_world(World& world, bool all) {
     world.size_program_values();  // the threads below only write values
     const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::uint64_t> sums(chunks, 0);  // modulo 2^64: any grouping gives the same total
-    exec_.loops().run(chunks, n, [&](std::size_t c) {
+    exec_.loops().run(chunks, n, [&](std::size_t ch) {
         std::vector<unsigned char> bytes;
         std::uint64_t sum = 0;
-        for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
-            const std::uint32_t k = owned_[o];
-            if (all || dirty_[k]) {
+        for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
+            Catom& c = *owned_rec_[o];
+            if (all || c.dirty) {
                 for (std::size_t v = 0; v < spec_->values.size(); ++v) {  // each catom its own local slot
-                    world.set_program_value(local_k_[k], static_cast<int>(v), catoms_[k]->values[v]);
+                    world.set_program_value(owned_local_[o], static_cast<int>(v), c.values[v]);
                 }
             }
-            if (dirty_[k]) digest_[k] = catom_digest(ids_[k], *catoms_[k], bytes), dirty_[k] = 0;
-            sum += digest_[k];
+            if (c.dirty) c.digest = catom_digest(owned_[o], c, bytes), c.dirty = false;
+            sum += c.digest;
         }
-        sums[c] = sum;
+        sums[ch] = sum;
     });
     std::uint64_t digest = 0;
     for (std::uint64_t v : sums) digest += v;
@@ -448,11 +487,17 @@ void ProgramPass::apply(World& world, double time) {
     // With neighbour events, every owned catom's neighbours; without, the
     // candidates made ready for the catoms that run (a handler that asks gets
     // its catom's neighbours then).
-    const std::vector<std::uint32_t> which = spec_->neighbour_events ? owned_ : due(time);
+    std::vector<std::uint32_t> which;
+    if (spec_->neighbour_events) {
+        which.resize(owned_.size());
+        for (std::size_t o = 0; o < which.size(); ++o) which[o] = static_cast<std::uint32_t>(o);
+    } else {
+        which = due(time);
+    }
     if (!which.empty()) {
         SubstageTimer t(counts_.parts, "neighbours");
         update_candidates(world);
-        if (spec_->neighbour_events) find_neighbours(which);
+        if (spec_->neighbour_events) find_neighbours();
     }
     {
         SubstageTimer t(counts_.parts, "handlers");

@@ -22,14 +22,18 @@
 // its event and the message, on every process.
 // Its whole state goes into checkpoints (save_state / load_state), in one
 // format for any number of processes.
-// Trade-off: a catom's record (its program object, mail, values) lives only
-// on the process that owns it, made when it first owns it and dropped when
-// it sends it on; every process keeps a few index arrays over all catoms
-// (about 40 bytes a catom: simple lookups and a checkpoint of any split,
-// against memory that grows with the scene); neighbours tested each step among
-// candidates listed with a skin (listed again from a cell list, O(N), when a
-// catom moved half the skin), kept as catom indices, and handed to a handler
-// with their directions only when it asks; only catoms with an event run.
+// Trade-off: a catom's record (its program object, mail, values, digest)
+// lives only on the process that owns it, made when it first owns it and
+// dropped when it sends it on, found by gid in a hash map; everything else
+// the pass keeps is per catom held here (owned or ghost), never per catom of
+// the scene, so a rank's memory follows what it holds (gid lookups go
+// through the world's id map, and lists of the owned catoms are matched by
+// merging sorted gids, against the dense tables over every catom this once
+// kept); neighbours tested each step among candidates listed with a skin
+// (listed again from a cell list, O(N), when a catom moved half the skin),
+// kept as gids, and handed to a handler with their directions only when it
+// asks; only catoms with an event run. Checkpoints hold every catom's record
+// (the whole scene's state, gathered only when written or read).
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -41,6 +45,7 @@
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
 #include "programs/program.hpp"
+#include "util/id_map.hpp"
 #include "util/substages.hpp"
 
 namespace parode {
@@ -79,20 +84,45 @@ public:
     std::vector<char> save_state() const;
     void load_state(World& world, const std::vector<char>& state);
     const ProgramSpec& spec() const { return *spec_; }
-    // Catom gids in order, and value k of every catom (after the last step;
-    // collective when distributed).
-    const std::vector<std::uint32_t>& catoms() const { return ids_; }
+    // The scene's catoms: their number, their gids in order, and value k of
+    // every catom (after the last step; collective when distributed).
+    std::size_t catom_count() const { return numbering_.count(); }
+    std::vector<std::uint32_t> catom_ids() const;
     std::vector<double> values_of(int k) const;
 
     struct Catom;  // per catom: program, mail, values (catom_state.hpp)
 
 private:
+    // The scene's catoms numbered in gid order (the checkpoint's order):
+    // [[bodies]] catoms first, then the generated ones (all catoms).
+    class Numbering {
+    public:
+        explicit Numbering(const Scene& scene);
+        std::size_t count() const { return listed_.size() + generated_; }
+        std::uint32_t gid(std::size_t k) const;
+        std::size_t index(std::uint32_t gid) const;
+
+    private:
+        std::vector<std::uint32_t> listed_;  // the [[bodies]] catoms' gids
+        std::size_t first_generated_ = 0, generated_ = 0;
+    };
+    // Neighbour lists of some catoms (keys: gids, ascending): key j's are
+    // ids[at[j] .. at[j + 1]) (gids, ascending).
+    struct Csr {
+        std::vector<std::uint32_t> keys, at, ids;
+        // Key g's place, or IdMap::kNone.
+        std::uint32_t place(std::uint32_t g) const;
+    };
+
     void locate(const World& world);
+    bool owned_here(const World& world, std::uint32_t g) const;
+    Catom* record(std::uint32_t g) const;
+    void bind_owned();
     void transfer(World& world);
     void update_candidates(const World& world);
-    void find_neighbours(const std::vector<std::uint32_t>& which);
-    void neighbours_of(std::uint32_t k, std::vector<std::uint32_t>& out) const;
-    const Vec3& reference(std::uint32_t k) const;
+    void find_neighbours();
+    void neighbours_of(std::uint32_t g, std::uint32_t local, std::vector<std::uint32_t>& out) const;
+    const Vec3& reference(std::uint32_t g) const;
     bool stale() const;
     void add_arrivals();
     void listed_near(const Vec3& x, double ra, std::vector<std::uint32_t>& out) const;
@@ -100,64 +130,61 @@ private:
     void grid_listed();
     void join(const std::vector<std::vector<std::uint32_t>>& part, std::vector<std::uint32_t>& out) const;
     std::vector<std::uint32_t> due(double time) const;
-    void neighbour_changes(std::uint32_t k, bool first, std::vector<std::uint32_t>& lost,
-                           std::vector<std::uint32_t>& gained) const;
+    void neighbour_changes(std::size_t o, std::vector<std::uint32_t>& lost, std::vector<std::uint32_t>& gained) const;
     void run_handlers(const World& world, const std::vector<std::uint32_t>& which, double time);
     void finish_step(World& world);
     void exchange_mail(World& world, std::vector<std::pair<std::uint32_t, std::string>>& failed);
-    std::unique_ptr<Catom> fresh_record(std::size_t k) const;
+    std::unique_ptr<Catom> fresh_record(std::uint32_t g) const;
     void hold_records();
     void refresh_world(World& world, bool all);
     // One catom's record (values, flags, timer, inbox, program bytes, last
-    // neighbours): appended to `out`, or read from `in` at `at` (returns the
-    // offset after it; `nbrs` gets the neighbours).
-    void put_catom(std::size_t k, std::vector<char>& out) const;
-    std::size_t get_catom(Catom& c, std::size_t k, const std::vector<char>& in, std::size_t at,
+    // neighbours as catom indices): appended to `out`, or read from `in` at
+    // `at` (returns the offset after it; `nbrs` gets the neighbours' gids).
+    void put_catom(std::uint32_t g, std::vector<char>& out) const;
+    std::size_t get_catom(Catom& c, std::uint32_t g, const std::vector<char>& in, std::size_t at,
                           std::vector<std::uint32_t>& nbrs) const;
     bool distributed() const { return coll_->distributed(); }
 
     const Scene& scene_;
     Execution& exec_;
     const ProgramSpec* spec_;
+    Numbering numbering_;
     Collectives single_;
     const Collectives* coll_ = &single_;
+    const World* world_ = nullptr;  // the world last located
     double reach_, edge_ = 0, skin_ = 0;
-    std::vector<std::uint32_t> ids_;  // catom gids, ascending
-    std::vector<std::uint32_t> kof_;  // gid -> catom index (kNone: not a catom)
-    // Each catom's record, held only while this process owns the catom
-    // (and, after a restart, until the first step has moved what moves).
-    std::vector<std::unique_ptr<Catom>> catoms_;
+    // Each owned catom's record by gid, held only while this process owns the
+    // catom (and, after a restart, until the first step has moved what moves).
+    std::unordered_map<std::uint32_t, std::unique_ptr<Catom>> records_;
     // No catom has run anywhere since the start (or the restart): an owned
     // catom without a record here may start afresh; later it must arrive.
     bool unstarted_ = true;
     bool relocated_ = false;  // locate() found the world changed: owned catoms may lack records
     bool sweep_ = false;      // records of catoms not owned here to drop (after a restart)
-    // This step: the catoms held here (ascending catom index) and their local
-    // indices, the owned ones, and each catom's local index (kNone: not held).
-    std::vector<std::uint32_t> present_, plocal_, owned_, local_k_;
-    std::vector<std::uint32_t> ran_;  // the owned catoms whose handlers ran this step (ascending)
-    std::vector<std::uint8_t> owned_now_;  // by catom index
-    std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step
-    std::vector<std::uint8_t> dirty_;        // by catom index: its record changed since its digest
-    std::vector<std::uint64_t> digest_;      // by catom index: the digest of its record
+    // This step: the catoms held here (gids, ascending) and their local
+    // indices; the owned ones (gids, ascending), their local indices and
+    // records (bind_owned).
+    std::vector<std::uint32_t> present_, plocal_, owned_, owned_local_;
+    std::vector<Catom*> owned_rec_;
+    std::vector<std::uint32_t> ran_;  // places in owned_ of the catoms whose handlers ran this step (ascending)
+    std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step (gids)
     std::uint64_t generation_ = ~0ULL;       // the world's, when the values were last written
     // Last step's neighbours of catoms that arrived from another process.
     std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> arrived_;
-    // Neighbours as catom indices, this step's and last step's (CSR over every
-    // catom, empty for those not owned: catom k's are ids[at[k] .. at[k + 1]),
-    // ascending).
-    struct Csr {
-        std::vector<std::uint32_t> at, ids;
-    } now_, before_;
-    // The candidate neighbours: the catoms listed (listed_k_, ascending),
-    // their centres then (listed_x_) and candidates (cand_: catom indices,
+    // This step's neighbours of the owned catoms (keys: owned_) and last
+    // step's (keys: last step's owned catoms, or every catom after a
+    // restart); each owned catom's place in before_ (kNone: none).
+    Csr now_, before_;
+    std::vector<std::uint32_t> before_at_;
+    // The candidate neighbours: the catoms listed (listed_k_, gids
+    // ascending), their centres then (listed_x_) and candidates (cand_: gids,
     // ascending), by their place in listed_k_; the same catoms sorted by cell
     // with their centres and radii (listed_, for the lookups; a radius kept
-    // in a float rounded up, so the bound can only widen); each catom's reference position (listed_x_, or
-    // extra_'s x for one that arrived since) and place (lidx_ by catom index;
-    // kNone: no reference); arrivals' candidates and the others' added to
-    // them (extra_), the arrivals in a hash grid, and how many arrived since
-    // the listing.
+    // in a float rounded up, so the bound can only widen); each held catom's
+    // place in listed_k_ (lidx_ by gid: kArrived for one that arrived since,
+    // with its reference position in extra_; absent: no reference); arrivals'
+    // candidates and the others' added to them (extra_), the arrivals in a
+    // hash grid, and how many arrived since the listing.
     struct Listed {
         Vec3 x;
         float r;
@@ -165,7 +192,8 @@ private:
     };
     Csr cand_;
     std::vector<Listed> listed_;
-    std::vector<std::uint32_t> listed_k_, lidx_;
+    std::vector<std::uint32_t> listed_k_;
+    IdMap lidx_;
     std::vector<Vec3> listed_x_;
     struct Extra {
         Vec3 x{0, 0, 0};

@@ -83,10 +83,11 @@ void post(std::vector<std::vector<char>>& out, int me, int to, const std::vector
 
 }  // namespace
 
-void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
+void ProgramPass::put_catom(std::uint32_t g, std::vector<char>& out) const {
     Bytes b(out);
-    const std::unique_ptr<Catom> fresh = catoms_[k] ? nullptr : fresh_record(k);  // one no process holds
-    const Catom& c = catoms_[k] ? *catoms_[k] : *fresh;
+    const Catom* held = record(g);
+    const std::unique_ptr<Catom> fresh = held ? nullptr : fresh_record(g);  // one no process holds
+    const Catom& c = held ? *held : *fresh;
     b.put(c.values);
     b.put(static_cast<std::uint8_t>(c.magnets));
     b.put(static_cast<std::uint8_t>(c.started));
@@ -100,12 +101,17 @@ void ProgramPass::put_catom(std::size_t k, std::vector<char>& out) const {
     std::vector<unsigned char> bytes;
     c.program->save(bytes);
     b.put_bytes(bytes.data(), bytes.size());
-    const bool listed = spec_->neighbour_events && k + 1 < now_.at.size();  // without the events, not kept
-    const std::uint32_t n0 = listed ? now_.at[k] : 0, n1 = listed ? now_.at[k + 1] : 0;
-    b.put_bytes(now_.ids.data() + n0, sizeof(std::uint32_t) * (n1 - n0));
+    const std::uint32_t j = spec_->neighbour_events ? now_.place(g) : IdMap::kNone;  // without the events, not kept
+    std::vector<std::uint32_t> listed;  // as catom indices
+    if (j != IdMap::kNone) {
+        for (std::uint32_t q = now_.at[j]; q < now_.at[j + 1]; ++q) {
+            listed.push_back(static_cast<std::uint32_t>(numbering_.index(now_.ids[q])));
+        }
+    }
+    b.put_bytes(listed.data(), sizeof(std::uint32_t) * listed.size());
 }
 
-std::size_t ProgramPass::get_catom(Catom& c, std::size_t k, const std::vector<char>& in, std::size_t at,
+std::size_t ProgramPass::get_catom(Catom& c, std::uint32_t g, const std::vector<char>& in, std::size_t at,
                                    std::vector<std::uint32_t>& nbrs) const {
     Bytes b(in, at);
     c.values = b.get<std::array<double, kProgramValues>>();
@@ -121,11 +127,15 @@ std::size_t ProgramPass::get_catom(Catom& c, std::size_t k, const std::vector<ch
     try {
         c.program->load(b.get_bytes());
     } catch (const std::exception& e) {
-        throw ProgramError("program " + spec_->name + ", catom " + std::to_string(ids_[k]) + ", restoring: " + e.what());
+        throw ProgramError("program " + spec_->name + ", catom " + std::to_string(g) + ", restoring: " + e.what());
     }
     const std::vector<unsigned char> list = b.get_bytes();
     nbrs.resize(list.size() / sizeof(std::uint32_t));
     if (!list.empty()) std::memcpy(nbrs.data(), list.data(), list.size());
+    for (std::uint32_t& n : nbrs) {
+        if (n >= numbering_.count()) throw CheckpointError("the catom programs' state names a neighbour past the scene's catoms");
+        n = numbering_.gid(n);
+    }
     return b.at();
 }
 
@@ -136,36 +146,38 @@ void ProgramPass::transfer(World& world) {
     const int me = coll_->rank();
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<char> record;
-    for (std::uint32_t k : last_owned_) {
-        if (owned_now_[k]) continue;
+    for (std::uint32_t g : last_owned_) {
+        if (owned_here(world, g)) continue;
         record.clear();
-        Bytes(record).put(k);
-        put_catom(k, record);
-        post(out, me, local_k_[k] != IdMap::kNone ? world.slot(local_k_[k]).owner : -1, record);
+        Bytes(record).put(g);
+        put_catom(g, record);
+        const std::uint32_t l = world.local_of(g);
+        post(out, me, l != IdMap::kNone ? world.slot(l).owner : -1, record);
     }
-    for (std::uint32_t k : last_owned_) {
-        if (!owned_now_[k]) catoms_[k].reset();  // sent: its record lives with its new owner
+    for (std::uint32_t g : last_owned_) {
+        if (!owned_here(world, g)) records_.erase(g);  // sent: its record lives with its new owner
     }
     std::vector<std::uint32_t> nbrs;
     std::unique_ptr<Catom> scratch;
     for (const std::vector<char>& in : coll_->sparse_to(out, 0)) {
         for (std::size_t at = 0; at < in.size();) {
             Bytes b(in, at);
-            const auto k = b.get<std::uint32_t>();
-            if (!owned_now_[k]) {  // sent to every process, owned elsewhere: read past it
-                if (!scratch) scratch = fresh_record(k);
-                at = get_catom(*scratch, k, in, b.at(), nbrs);
+            const auto g = b.get<std::uint32_t>();
+            if (!owned_here(world, g)) {  // sent to every process, owned elsewhere: read past it
+                if (!scratch) scratch = fresh_record(g);
+                at = get_catom(*scratch, g, in, b.at(), nbrs);
                 continue;
             }
-            if (!catoms_[k]) catoms_[k] = fresh_record(k);
-            at = get_catom(*catoms_[k], k, in, b.at(), nbrs);
-            arrived_[k] = nbrs;
-            dirty_[k] = 1;
+            std::unique_ptr<Catom>& r = records_[g];
+            if (!r) r = fresh_record(g);
+            at = get_catom(*r, g, in, b.at(), nbrs);
+            arrived_[g] = nbrs;
+            r->dirty = true;
         }
     }
     if (sweep_) {  // after a restart every process held every record: keep the owned ones
-        for (std::size_t k = 0; k < catoms_.size(); ++k) {
-            if (!owned_now_[k]) catoms_[k].reset();
+        for (auto it = records_.begin(); it != records_.end();) {
+            it = owned_here(world, it->first) ? std::next(it) : records_.erase(it);
         }
         sweep_ = false;
     }
@@ -181,24 +193,25 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
     const int me = coll_->rank();
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<char> item;
-    for (std::uint32_t k : ran_) {  // only they may have sent or switched
-        Catom& c = *catoms_[k];
-        for (const auto& [to, m] : c.outbox) {
-            const std::uint32_t kt = kof_[to];
-            if (owned_now_[kt]) {
-                catoms_[kt]->inbox.push_back(m);
-                dirty_[kt] = 1;
+    for (std::uint32_t o : ran_) {  // only they may have sent or switched
+        Catom& c = *owned_rec_[o];
+        for (const auto& [to, m] : c.outbox) {  // `to` is a neighbour: held here
+            if (owned_here(world, to)) {
+                Catom& r = *record(to);
+                r.inbox.push_back(m);
+                r.dirty = true;
                 continue;
             }
-            Bytes b(out[static_cast<std::size_t>(world.slot(local_k_[kt]).owner)]);
-            b.put(kMessage), b.put(kt), b.put(m.from), b.put(m.data);
+            Bytes b(out[static_cast<std::size_t>(world.slot(world.local_of(to)).owner)]);
+            b.put(kMessage), b.put(to), b.put(m.from), b.put(m.data);
         }
+        const std::uint32_t g = owned_[o];
         const std::uint8_t off = c.magnets ? c.poles_off : World::kAllPolesOff;
-        if (world.poles_off(ids_[k]) != off) {
-            world.switch_poles(ids_[k], off);
+        if (world.poles_off(g) != off) {
+            world.switch_poles(g, off);
             item.clear();
             Bytes b(item);
-            b.put(kSwitch), b.put(ids_[k]), b.put(off);
+            b.put(kSwitch), b.put(g), b.put(off);
             post(out, me, -1, item);
         }
     }
@@ -215,14 +228,15 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
         for (Bytes b(in, 0); !b.done();) {
             const auto what = b.get<std::uint8_t>();
             if (what == kMessage) {
-                const auto kt = b.get<std::uint32_t>();
+                const auto to = b.get<std::uint32_t>();
                 CatomMessage m;
                 m.from = b.get<std::uint32_t>();
                 m.data = b.get<std::array<std::int64_t, 4>>();
-                if (!owned_now_[kt]) throw std::logic_error("a message for catom " + std::to_string(ids_[kt]) + ", not owned here");
-                catoms_[kt]->inbox.push_back(m);
-                dirty_[kt] = 1;
-                mailed.push_back(kt);
+                if (!owned_here(world, to)) throw std::logic_error("a message for catom " + std::to_string(to) + ", not owned here");
+                Catom& r = *record(to);
+                r.inbox.push_back(m);
+                r.dirty = true;
+                mailed.push_back(to);
             } else if (what == kSwitch) {
                 const auto g = b.get<std::uint32_t>();
                 world.switch_poles(g, b.get<std::uint8_t>());
@@ -232,8 +246,9 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
             }
         }
     }
-    for (std::uint32_t k : mailed) {
-        std::stable_sort(catoms_[k]->inbox.begin(), catoms_[k]->inbox.end(),
+    for (std::uint32_t g : mailed) {
+        std::vector<CatomMessage>& inbox = record(g)->inbox;
+        std::stable_sort(inbox.begin(), inbox.end(),
                          [](const CatomMessage& a, const CatomMessage& b) { return a.from < b.from; });
     }
 }
@@ -244,42 +259,43 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
 std::vector<char> ProgramPass::save_state() const {
     std::vector<char> out;
     Bytes b(out);
-    b.put(static_cast<std::uint64_t>(ids_.size()));
+    b.put(static_cast<std::uint64_t>(numbering_.count()));
     b.put(static_cast<std::int64_t>(step_));
     b.put(counts_.steps);
     const ProgramCounts counted = totals();
     b.put(counted.messages);
     b.put(counted.events);
+    const std::size_t count = numbering_.count();
     if (!distributed()) {
-        for (std::size_t k = 0; k < catoms_.size(); ++k) put_catom(k, out);
+        for (std::size_t k = 0; k < count; ++k) put_catom(numbering_.gid(k), out);
         return out;
     }
-    std::vector<char> mine, record;  // (catom, length, record) of each catom run here
-    for (std::uint32_t k : last_owned_) {
-        record.clear();
-        put_catom(k, record);
-        Bytes(mine).put(k);
-        Bytes(mine).put(static_cast<std::uint64_t>(record.size()));
-        mine.insert(mine.end(), record.begin(), record.end());
+    std::vector<char> mine, one;  // (catom, length, record) of each catom run here
+    for (std::uint32_t g : last_owned_) {
+        one.clear();
+        put_catom(g, one);
+        Bytes(mine).put(g);
+        Bytes(mine).put(static_cast<std::uint64_t>(one.size()));
+        mine.insert(mine.end(), one.begin(), one.end());
     }
-    std::vector<std::pair<const char*, std::size_t>> from(catoms_.size(), {nullptr, 0});
+    std::vector<std::pair<const char*, std::size_t>> from(count, {nullptr, 0});  // by catom index
     const std::vector<std::vector<char>> all = coll_->all_gather(mine);
     for (const std::vector<char>& in : all) {
         for (Bytes r(in, 0); !r.done();) {
-            const auto k = r.get<std::uint32_t>();
+            const auto g = r.get<std::uint32_t>();
             const auto n = static_cast<std::size_t>(r.get<std::uint64_t>());
-            from[k] = {in.data() + r.at(), n};
+            from[numbering_.index(g)] = {in.data() + r.at(), n};
             Bytes skip(in, r.at() + n);
             r = skip;
         }
     }
     std::vector<char> own;
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
+    for (std::size_t k = 0; k < count; ++k) {
         if (from[k].first) {
             out.insert(out.end(), from[k].first, from[k].first + from[k].second);
         } else {
             own.clear();
-            put_catom(k, own);
+            put_catom(numbering_.gid(k), own);
             out.insert(out.end(), own.begin(), own.end());
         }
     }
@@ -288,7 +304,8 @@ std::vector<char> ProgramPass::save_state() const {
 
 void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     Bytes b(state, 0);
-    if (b.get<std::uint64_t>() != ids_.size()) {
+    const std::size_t count = numbering_.count();
+    if (b.get<std::uint64_t>() != count) {
         throw CheckpointError("the catom programs' state in the checkpoint is for another number of catoms");
     }
     step_ = static_cast<long>(b.get<std::int64_t>());
@@ -296,41 +313,42 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     counts_.messages = b.get<std::uint64_t>();
     counts_.events = b.get<std::uint64_t>();
     if (coll_->rank() != 0) counts_.messages = counts_.events = 0;  // the totals counted once, on the first process
-    now_.at.assign(ids_.size() + 1, 0);
+    now_.keys.resize(count);
+    now_.at.assign(count + 1, 0);
     now_.ids.clear();
     std::size_t at = b.at();
     std::vector<std::uint32_t> nbrs;
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        if (!catoms_[k]) catoms_[k] = fresh_record(k);
-        at = get_catom(*catoms_[k], k, state, at, nbrs);
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t g = numbering_.gid(k);
+        std::unique_ptr<Catom>& r = records_[g];
+        if (!r) r = fresh_record(g);
+        at = get_catom(*r, g, state, at, nbrs);
+        r->dirty = true;
+        now_.keys[k] = g;
         now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
         now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
+        world.switch_poles(g, r->magnets ? r->poles_off : World::kAllPolesOff);
     }
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
     unstarted_ = true;  // every process holds every catom's state now
-    std::fill(dirty_.begin(), dirty_.end(), 1);
     sweep_ = distributed();
     last_owned_.clear();
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        world.switch_poles(ids_[k], catoms_[k]->magnets ? catoms_[k]->poles_off : World::kAllPolesOff);
-    }
     located_ = ~0ULL;
     locate(world);
+    bind_owned();
     refresh_world(world, true);
 }
 
 std::vector<double> ProgramPass::values_of(int v) const {
-    std::vector<double> out(catoms_.size());
-    for (std::size_t k = 0; k < catoms_.size(); ++k) {
-        out[k] = catoms_[k] ? catoms_[k]->values.at(static_cast<std::size_t>(v)) : 0.0;  // not held here: the owner's below
-    }
+    std::vector<double> out(numbering_.count(), 0.0);  // not held here: the owner's below
+    for (const auto& [g, r] : records_) out[numbering_.index(g)] = r->values.at(static_cast<std::size_t>(v));
     if (!distributed()) return out;
     std::vector<char> mine;
-    for (std::uint32_t k : last_owned_) Bytes(mine).put(k), Bytes(mine).put(out[k]);
+    for (std::uint32_t g : last_owned_) Bytes(mine).put(g), Bytes(mine).put(out[numbering_.index(g)]);
     for (const std::vector<char>& in : coll_->all_gather(mine)) {
         for (Bytes b(in, 0); !b.done();) {
-            const auto k = b.get<std::uint32_t>();
-            out[k] = b.get<double>();
+            const auto g = b.get<std::uint32_t>();
+            out[numbering_.index(g)] = b.get<double>();
         }
     }
     return out;

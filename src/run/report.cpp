@@ -121,7 +121,7 @@ nlohmann::json program_json(const Collectives& domain, const ProgramPass& pass) 
     constexpr std::size_t kListedCatoms = 100000;
     const ProgramCounts c = pass.totals();  // collective when distributed
     const double steps = c.steps ? static_cast<double>(c.steps) : 1.0;
-    nlohmann::json out = {{"name", pass.spec().name},         {"catoms", pass.catoms().size()},
+    nlohmann::json out = {{"name", pass.spec().name},         {"catoms", pass.catom_count()},
                           {"steps", c.steps},                 {"messages", c.messages},
                           {"events", c.events},               {"messages_per_step", static_cast<double>(c.messages) / steps},
                           {"events_per_step", c.events / steps}, {"seconds", c.seconds},
@@ -130,8 +130,8 @@ nlohmann::json program_json(const Collectives& domain, const ProgramPass& pass) 
     nlohmann::json parts = nlohmann::json::object();  // collective: every process has timed every part
     for (const auto& [name, seconds] : c.parts.items()) parts[name] = spread(domain, seconds);
     out["parts_s"] = parts;
-    if (pass.catoms().size() > kListedCatoms) return out;
-    out["ids"] = pass.catoms();
+    if (pass.catom_count() > kListedCatoms) return out;
+    out["ids"] = pass.catom_ids();
     nlohmann::json values = nlohmann::json::object();
     for (std::size_t k = 0; k < pass.spec().values.size(); ++k) {
         values[pass.spec().values[k]] = pass.values_of(static_cast<int>(k));  // collective when distributed
