@@ -2,16 +2,19 @@
 // erasures: the dense table and the open-addressing hash give every lookup
 // the reference gives, through growth and through erasures that shift runs
 // back (ids chosen to collide in few slots, so runs are long and wrap around
-// the table's end); and which form a share of the ids gets.
+// the table's end); and which form a share of the ids gets. GidTable (the
+// objects held by id, over an IdMap) against std::map the same way.
 // Trade-off: a fixed seed and sizes of a few thousand ids: every branch of
 // the shifting is taken many times, in milliseconds.
 #include <gtest/gtest.h>
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <random>
 #include <vector>
 
+#include "util/gid_table.hpp"
 #include "util/id_map.hpp"
 
 using namespace parode;
@@ -83,5 +86,42 @@ TEST(IdMap, HashRunsThatWrapAroundShiftBack) {
         churn(m, 7, 200, &ids, set);
     }
 }
+
+// GidTable against std::map through adds, erasures (slots reused), a keep_only
+// and the walk over what it holds, with a dense and a hashed map.
+void table_churn(std::size_t gids, std::size_t expected) {
+    GidTable<int> t;
+    t.reset(gids, expected);
+    std::map<std::uint32_t, int> ref;
+    std::mt19937 rng(11);
+    for (int op = 0; op < 20000; ++op) {
+        const std::uint32_t id = static_cast<std::uint32_t>(rng() % 2000) * static_cast<std::uint32_t>(gids / 2000);
+        if (rng() % 3 == 0) {
+            t.erase(id);
+            ref.erase(id);
+        } else {
+            std::unique_ptr<int>& p = t.at(id);
+            if (!p) p = std::make_unique<int>(op);
+            ref.emplace(id, *p);
+        }
+        const int* found = t.find(id);
+        ASSERT_EQ(found != nullptr, ref.count(id) == 1) << "id " << id << " op " << op;
+        if (found) {
+            ASSERT_EQ(*found, ref.at(id));
+        }
+    }
+    t.keep_only(gids, [](std::uint32_t id) { return id % 3 == 0; });
+    for (auto it = ref.begin(); it != ref.end();) it = it->first % 3 == 0 ? std::next(it) : ref.erase(it);
+    std::map<std::uint32_t, int> walked;
+    t.each([&](std::uint32_t id, const int& v) { walked.emplace(id, v); });
+    EXPECT_EQ(walked, ref);
+    for (std::uint32_t id = 0; id < gids; id += static_cast<std::uint32_t>(gids / 2000)) {
+        EXPECT_EQ(t.find(id) != nullptr, ref.count(id) == 1) << id;
+    }
+}
+
+TEST(GidTable, AgreesWithAMapDense) { table_churn(2000, 2000); }
+
+TEST(GidTable, AgreesWithAMapHashed) { table_churn(2000u * 100000u, 16); }
 
 }  // namespace

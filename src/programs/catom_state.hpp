@@ -1,6 +1,6 @@
 // One catom's program state inside the catom programs' pass (private to
-// src/programs/): its program object, mail, values, magnets, timer and
-// digest; and a catom's radius.
+// src/programs/): its program object, mail, values, magnets and timer; and
+// a catom's radius.
 // Trade-off: a plain struct shared by the pass and its state exchange
 // instead of accessors: both are the pass.
 #pragma once
@@ -25,8 +25,6 @@ struct ProgramPass::Catom {
     double timer_at = -1;  // negative: no timer
     std::uint32_t events = 0;
     std::string error;     // this step's first failure
-    bool dirty = true;          // changed since its digest
-    std::uint64_t digest = 0;   // what it adds to the state hash
 };
 
 // The radius of catom `gid` (a [[bodies]] catom's own, else the prototype's).

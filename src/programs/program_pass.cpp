@@ -279,15 +279,35 @@ bool ProgramPass::owned_here(const World& world, std::uint32_t g) const {
     return l != IdMap::kNone && !world.ghost(l);
 }
 
-ProgramPass::Catom* ProgramPass::record(std::uint32_t g) const {
-    const auto it = records_.find(g);
-    return it == records_.end() ? nullptr : it->second.get();
+ProgramPass::Catom* ProgramPass::record(std::uint32_t g) const { return records_.find(g); }
+
+// The records' table, sized for about `expected` catoms at its first use.
+void ProgramPass::ensure_records(std::size_t expected) {
+    if (!records_.ready()) records_.reset(scene_.body_count(), expected);
 }
 
-// The owned catoms' records beside them, for the loops over them.
+// The owned catoms' records beside them, for the loops over them, and
+// their digests: kept for the catoms that stayed owned (matched by a merge),
+// to be worked out for the others.
 void ProgramPass::bind_owned() {
-    owned_rec_.resize(owned_.size());
-    for (std::size_t o = 0; o < owned_.size(); ++o) owned_rec_[o] = record(owned_[o]);
+    const std::size_t n = owned_.size();
+    owned_rec_.resize(n);
+    for (std::size_t o = 0; o < n; ++o) owned_rec_[o] = record(owned_[o]);
+    if (digest_of_ == owned_) return;
+    std::vector<std::uint64_t> digest(n, 0);
+    std::vector<std::uint8_t> dirty(n, 1);
+    for (std::size_t o = 0, b = 0; o < n; ++o) {
+        while (b < digest_of_.size() && digest_of_[b] < owned_[o]) ++b;
+        if (b < digest_of_.size() && digest_of_[b] == owned_[o]) digest[o] = digest_[b], dirty[o] = dirty_[b];
+    }
+    digest_.swap(digest);
+    dirty_.swap(dirty);
+    digest_of_ = owned_;
+}
+
+// Owned catom g's record changed (its mail).
+void ProgramPass::mark_dirty(std::uint32_t g) {
+    dirty_[static_cast<std::size_t>(std::lower_bound(owned_.begin(), owned_.end(), g) - owned_.begin())] = 1;
 }
 
 ProgramCounts ProgramPass::totals() const {
@@ -309,9 +329,10 @@ void ProgramPass::prepare(const World& world) {
 // threads (a program's constructor, like its handlers, touches only its own
 // object); the first failure is rethrown.
 void ProgramPass::hold_records() {
+    ensure_records(owned_.size());
     std::vector<std::uint32_t> make;
     for (std::uint32_t g : owned_) {
-        if (records_.count(g)) continue;
+        if (record(g)) continue;
         if (!unstarted_) {
             throw std::logic_error("catom " + std::to_string(g) + " came to this process without its program state");
         }
@@ -332,8 +353,7 @@ void ProgramPass::hold_records() {
     for (const std::exception_ptr& e : failed) {
         if (e) std::rethrow_exception(e);
     }
-    records_.reserve(records_.size() + n);
-    for (std::size_t i = 0; i < n; ++i) records_[make[i]] = std::move(made[i]);
+    for (std::size_t i = 0; i < n; ++i) records_.at(make[i]) = std::move(made[i]);
     bind_owned();
 }
 
@@ -367,7 +387,7 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
             c.error.clear();
             Context ctx(c, g, world.body(local), step_, time, scene_, range, scratch);
             run_catom(c, ctx, lost, gained, time);
-            c.dirty = true;  // its own record: no two threads write the same
+            dirty_[at] = 1;  // one byte a catom: no two threads write the same
             ran[ch].push_back(at);
         }
     });
@@ -456,14 +476,13 @@ void ProgramPass::refresh_world(World& world, bool all) {
         std::vector<unsigned char> bytes;
         std::uint64_t sum = 0;
         for (std::size_t o = chunk_begin(n, chunks, ch); o < chunk_begin(n, chunks, ch + 1); ++o) {
-            Catom& c = *owned_rec_[o];
-            if (all || c.dirty) {
+            if (all || dirty_[o]) {
                 for (std::size_t v = 0; v < spec_->values.size(); ++v) {  // each catom its own local slot
-                    world.set_program_value(owned_local_[o], static_cast<int>(v), c.values[v]);
+                    world.set_program_value(owned_local_[o], static_cast<int>(v), owned_rec_[o]->values[v]);
                 }
             }
-            if (c.dirty) c.digest = catom_digest(owned_[o], c, bytes), c.dirty = false;
-            sum += c.digest;
+            if (dirty_[o]) digest_[o] = catom_digest(owned_[o], *owned_rec_[o], bytes), dirty_[o] = 0;
+            sum += digest_[o];
         }
         sums[ch] = sum;
     });

@@ -24,7 +24,7 @@
 // format for any number of processes.
 // Trade-off: a catom's record (its program object, mail, values, digest)
 // lives only on the process that owns it, made when it first owns it and
-// dropped when it sends it on, found by gid in a hash map; everything else
+// dropped when it sends it on, found by gid (util/gid_table.hpp); everything else
 // the pass keeps is per catom held here (owned or ghost), never per catom of
 // the scene, so a rank's memory follows what it holds (gid lookups go
 // through the world's id map, and lists of the owned catoms are matched by
@@ -45,6 +45,7 @@
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
 #include "programs/program.hpp"
+#include "util/gid_table.hpp"
 #include "util/id_map.hpp"
 #include "util/substages.hpp"
 
@@ -117,6 +118,8 @@ private:
     void locate(const World& world);
     bool owned_here(const World& world, std::uint32_t g) const;
     Catom* record(std::uint32_t g) const;
+    void ensure_records(std::size_t expected);
+    void mark_dirty(std::uint32_t g);
     void bind_owned();
     void transfer(World& world);
     void update_candidates(const World& world);
@@ -154,8 +157,9 @@ private:
     const World* world_ = nullptr;  // the world last located
     double reach_, edge_ = 0, skin_ = 0;
     // Each owned catom's record by gid, held only while this process owns the
-    // catom (and, after a restart, until the first step has moved what moves).
-    std::unordered_map<std::uint32_t, std::unique_ptr<Catom>> records_;
+    // catom (and, after a restart, until the first step has moved what moves);
+    // sized at its first use (ensure_records) for the catoms owned then.
+    GidTable<Catom> records_;
     // No catom has run anywhere since the start (or the restart): an owned
     // catom without a record here may start afresh; later it must arrive.
     bool unstarted_ = true;
@@ -163,9 +167,13 @@ private:
     bool sweep_ = false;      // records of catoms not owned here to drop (after a restart)
     // This step: the catoms held here (gids, ascending) and their local
     // indices; the owned ones (gids, ascending), their local indices and
-    // records (bind_owned).
+    // records, and whether each record changed since its digest and the
+    // digest (bind_owned; the digests were worked out for digest_of_).
     std::vector<std::uint32_t> present_, plocal_, owned_, owned_local_;
     std::vector<Catom*> owned_rec_;
+    std::vector<std::uint8_t> dirty_;
+    std::vector<std::uint64_t> digest_;
+    std::vector<std::uint32_t> digest_of_;
     std::vector<std::uint32_t> ran_;  // places in owned_ of the catoms whose handlers ran this step (ascending)
     std::vector<std::uint32_t> last_owned_;  // the catoms this process ran last step (gids)
     std::uint64_t generation_ = ~0ULL;       // the world's, when the values were last written

@@ -12,6 +12,7 @@
 // magnets right wherever it appears.
 #include <algorithm>
 #include <cstring>
+#include <iterator>
 
 #include "programs/catom_state.hpp"
 #include "programs/program_pass.hpp"
@@ -144,19 +145,19 @@ std::size_t ProgramPass::get_catom(Catom& c, std::uint32_t g, const std::vector<
 // that arrive keep their last neighbours for this step's lost and gained.
 void ProgramPass::transfer(World& world) {
     const int me = coll_->rank();
+    ensure_records(owned_.size());
     std::vector<std::vector<char>> out(static_cast<std::size_t>(coll_->ranks()));
     std::vector<char> record;
-    for (std::uint32_t g : last_owned_) {
-        if (owned_here(world, g)) continue;
+    std::vector<std::uint32_t> left;  // owned here last step, not now (both lists ascending)
+    std::set_difference(last_owned_.begin(), last_owned_.end(), owned_.begin(), owned_.end(), std::back_inserter(left));
+    for (std::uint32_t g : left) {
         record.clear();
         Bytes(record).put(g);
         put_catom(g, record);
         const std::uint32_t l = world.local_of(g);
         post(out, me, l != IdMap::kNone ? world.slot(l).owner : -1, record);
     }
-    for (std::uint32_t g : last_owned_) {
-        if (!owned_here(world, g)) records_.erase(g);  // sent: its record lives with its new owner
-    }
+    for (std::uint32_t g : left) records_.erase(g);  // sent: its record lives with its new owner
     std::vector<std::uint32_t> nbrs;
     std::unique_ptr<Catom> scratch;
     for (const std::vector<char>& in : coll_->sparse_to(out, 0)) {
@@ -168,17 +169,14 @@ void ProgramPass::transfer(World& world) {
                 at = get_catom(*scratch, g, in, b.at(), nbrs);
                 continue;
             }
-            std::unique_ptr<Catom>& r = records_[g];
+            std::unique_ptr<Catom>& r = records_.at(g);
             if (!r) r = fresh_record(g);
             at = get_catom(*r, g, in, b.at(), nbrs);
-            arrived_[g] = nbrs;
-            r->dirty = true;
+            arrived_[g] = nbrs;  // not owned here last step: its digest is worked out (bind_owned)
         }
     }
     if (sweep_) {  // after a restart every process held every record: keep the owned ones
-        for (auto it = records_.begin(); it != records_.end();) {
-            it = owned_here(world, it->first) ? std::next(it) : records_.erase(it);
-        }
+        records_.keep_only(scene_.body_count(), [&](std::uint32_t g) { return owned_here(world, g); });
         sweep_ = false;
     }
     hold_records();
@@ -197,9 +195,8 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
         Catom& c = *owned_rec_[o];
         for (const auto& [to, m] : c.outbox) {  // `to` is a neighbour: held here
             if (owned_here(world, to)) {
-                Catom& r = *record(to);
-                r.inbox.push_back(m);
-                r.dirty = true;
+                record(to)->inbox.push_back(m);
+                mark_dirty(to);
                 continue;
             }
             Bytes b(out[static_cast<std::size_t>(world.slot(world.local_of(to)).owner)]);
@@ -233,9 +230,8 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
                 m.from = b.get<std::uint32_t>();
                 m.data = b.get<std::array<std::int64_t, 4>>();
                 if (!owned_here(world, to)) throw std::logic_error("a message for catom " + std::to_string(to) + ", not owned here");
-                Catom& r = *record(to);
-                r.inbox.push_back(m);
-                r.dirty = true;
+                record(to)->inbox.push_back(m);
+                mark_dirty(to);
                 mailed.push_back(to);
             } else if (what == kSwitch) {
                 const auto g = b.get<std::uint32_t>();
@@ -318,12 +314,12 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     now_.ids.clear();
     std::size_t at = b.at();
     std::vector<std::uint32_t> nbrs;
+    ensure_records(count);
     for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t g = numbering_.gid(k);
-        std::unique_ptr<Catom>& r = records_[g];
+        std::unique_ptr<Catom>& r = records_.at(g);
         if (!r) r = fresh_record(g);
         at = get_catom(*r, g, state, at, nbrs);
-        r->dirty = true;
         now_.keys[k] = g;
         now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
         now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
@@ -336,12 +332,13 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     located_ = ~0ULL;
     locate(world);
     bind_owned();
+    std::fill(dirty_.begin(), dirty_.end(), 1);
     refresh_world(world, true);
 }
 
 std::vector<double> ProgramPass::values_of(int v) const {
     std::vector<double> out(numbering_.count(), 0.0);  // not held here: the owner's below
-    for (const auto& [g, r] : records_) out[numbering_.index(g)] = r->values.at(static_cast<std::size_t>(v));
+    records_.each([&](std::uint32_t g, const Catom& r) { out[numbering_.index(g)] = r.values.at(static_cast<std::size_t>(v)); });
     if (!distributed()) return out;
     std::vector<char> mine;
     for (std::uint32_t g : last_owned_) Bytes(mine).put(g), Bytes(mine).put(out[numbering_.index(g)]);
