@@ -31,16 +31,4 @@ for turn in $(seq 1 ${TURNS:-3}); do
     mpiexec -n 2 --oversubscribe $P run $G --set catoms.count=100000 --steps 20 --threads 1 -q --report $OUT/speed-$b-2x1-t$turn.json
   done
 done
-python3 - "$OUT" <<'PY'
-import json, os, sys
-out = sys.argv[1]
-for f in sorted(os.listdir(out)):
-    if f.endswith(".json"):
-        path = os.path.join(out, f)
-        r = json.load(open(path))
-        p = r.get("program")
-        if p:  # keep the reports small: no per-catom lists
-            p.pop("ids", None)
-            p.pop("values", None)
-        json.dump(r, open(path, "w"), indent=1, sort_keys=True)
-PY
+python3 analysis/results/vm-amd-epyc-2c/catom-programs/strip_reports.py "$OUT"

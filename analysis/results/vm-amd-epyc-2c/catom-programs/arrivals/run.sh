@@ -30,17 +30,4 @@ for p in gradient sculpt none; do
   build/ci/parode run $F --set catoms.count=1000000 --steps 6 --threads 2 -q --report $OUT/$p-1e6-1x2.json
   [ $p = none ] || mpiexec -n 2 --oversubscribe build/ci/parode run $F --set catoms.count=1000000 --steps 6 --threads 1 -q --report $OUT/$p-1e6-2x1.json
 done
-python3 - "$OUT" <<'PY'
-import json, os, sys
-out = sys.argv[1]
-for f in sorted(os.listdir(out)):
-    if not f.endswith(".json"):
-        continue
-    path = os.path.join(out, f)
-    r = json.load(open(path))
-    p = r.get("program")
-    if p:  # keep the reports small: no per-catom lists
-        p.pop("ids", None)
-        p.pop("values", None)
-    json.dump(r, open(path, "w"), indent=1, sort_keys=True)
-PY
+python3 analysis/results/vm-amd-epyc-2c/catom-programs/strip_reports.py "$OUT"
