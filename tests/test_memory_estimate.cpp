@@ -1,6 +1,7 @@
 // The run memory estimate (run/memory_estimate.hpp): grows with what it should,
 // agrees with committed peak-RSS measurements within 15 %, counts the magnet
-// pass's data only when the magnets act, gives per-rank
+// pass's data only when the magnets act and a program's only when one runs,
+// gives per-rank
 // figures, and the refusal names what is needed and what is available.
 // Trade-off: one measured point is committed as a constant; re-measure it when
 // the data structures change (command in memory_estimate.cpp).
@@ -65,6 +66,24 @@ TEST(MemoryEstimate, MagnetsCountOnlyWhenTheyAct) {
     EXPECT_NEAR(e_on - e_off, 5000 * 242.0, 1.0);
     const auto weak = parode::load_scene(kMagnetic, {"catoms.count=5000", "magnets.strength=0.0"});
     EXPECT_DOUBLE_EQ(parode::estimate_memory(weak, grid_run()).bytes, e_off);
+}
+
+// A catom program's records and lists are counted for every catom, before
+// and after the prism is generated, and only when a program runs; measured:
+// gradient at 200,000 catoms (tennis) 470,220 kB peak RSS.
+TEST(MemoryEstimate, ProgramsCountOnlyWhenTheyRun) {
+    double before_with = -1;
+    const auto with = parode::load_scene(kTennis, {"catoms.count=200000", "program.name=\"gradient\""},
+                                         [&](const parode::Scene& so_far, const parode::CatomPlan& p) {
+                                             EXPECT_TRUE(p.program);
+                                             before_with = parode::estimate_memory(parode::scene_size(so_far, p), grid_run()).bytes;
+                                         });
+    const auto without = parode::load_scene(kTennis, {"catoms.count=200000"});
+    const double e_with = parode::estimate_memory(with, grid_run()).bytes;
+    EXPECT_DOUBLE_EQ(before_with, e_with);
+    EXPECT_NEAR(e_with - parode::estimate_memory(without, grid_run()).bytes, 200000 * 520.0, 1.0);
+    EXPECT_GT(e_with, 0.85 * 470220.0 * 1024) << parode::format_bytes(e_with);
+    EXPECT_LT(e_with, 1.15 * 470220.0 * 1024) << parode::format_bytes(e_with);
 }
 
 // The hook sees the prism before it exists: the same figure as after.

@@ -24,6 +24,10 @@
 //   ODE's hash space allocates a bit per ordered pair of geoms, geoms^2 / 8 bytes.
 //   --collide ode-sap / grid with --solver ode: 3 to 10 % below grid/parallel.
 //   --trajectory: 24 bytes per body per frame (8,000 bodies, 101 frames: +17 MB).
+//   --program gradient: 166,284 kB at N = 64,000 and 470,220 kB at 200,000
+//   (tennis, the same contacts), 582 and 518 bytes a catom more; wave 515 and
+//   407: each catom's record and program object and the pass's lists (a
+//   program library's own objects add what they hold).
 // The estimate for N = 200,000 (grid, parallel) is 0.41 GB against 0.39 GB
 // measured; at N = 10^6, 1.96 GB against 1.84 GB (2 steps) and 1.92 GB (5
 // steps, analysis/results/vm-amd-epyc-2c/list-build).
@@ -45,6 +49,7 @@ constexpr double kBytesPerBody = 1416;
 constexpr double kBytesPerContact = 262;
 constexpr double kContactsPerBody = 2;
 constexpr double kBytesPerMagnetCatom = 242;
+constexpr double kBytesPerProgramCatom = 520;
 constexpr double kBytesPerFramePerBody = 24;   // trajectory positions
 constexpr double kBytesPerFrameHeader = 128;   // 16 doubles
 constexpr double kBytesPerDumpBody = 13 * 8;   // guard: position, quaternion, velocities
@@ -70,6 +75,7 @@ SceneSize scene_size(const Scene& scene) {
     s.geoms += n;
     if (n > 0) s.contacts += prism_contacts(n, scene.catoms.proto.shape.radius, scene.catoms.spacing);
     s.magnet_catoms = scene.any_magnets() ? static_cast<double>(scene.catom_count()) : 0;
+    s.program_catoms = scene.program.enabled ? static_cast<double>(scene.catom_count()) : 0;
     return s;
 }
 
@@ -82,6 +88,7 @@ SceneSize scene_size(const Scene& so_far, const CatomPlan& catoms) {
     // The magnets are read after the prism: the plan says whether they act,
     // so every catom counts (a [magnets] off list is not subtracted).
     s.magnet_catoms = catoms.magnets ? static_cast<double>(so_far.catom_count()) + n : 0;
+    s.program_catoms = catoms.program ? static_cast<double>(so_far.catom_count()) + n : 0;  // read after the prism
     return s;
 }
 
@@ -91,7 +98,7 @@ MemoryEstimate estimate_memory(const SceneSize& size, const RunShape& run, int r
     const double r = e.ranks, p = std::max(1, run.pipelines);
     const double bodies = size.bodies / r, geoms = size.geoms / r;
     const double world = bodies * kBytesPerBody + size.contacts / r * kBytesPerContact +
-                         size.magnet_catoms / r * kBytesPerMagnetCatom;
+                         size.magnet_catoms / r * kBytesPerMagnetCatom + size.program_catoms / r * kBytesPerProgramCatom;
     const double hash = run.collide == "ode-hash" ? geoms * geoms / 8 : 0;
     const double frames = run.record_trajectory ? static_cast<double>(run.steps / std::max(1L, run.observe_every) + 2) : 0;
     const double trajectory = frames * (bodies * kBytesPerFramePerBody + kBytesPerFrameHeader);

@@ -23,6 +23,7 @@ struct SceneSize {
     double magnet_catoms = 0;  // catoms whose magnets act (the magnet pass keeps data for them)
     double geoms = 0;     // geoms in the collision space: bodies, statics, planes
     double contacts = 0;  // expected contacts at the peak
+    double program_catoms = 0;  // catoms that run a program (its record and the pass's lists)
 };
 
 // How the scene is run.

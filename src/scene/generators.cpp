@@ -50,6 +50,7 @@ MagnetSwitch magnet_switch(const Node& t) {
 
 CatomPlan plan_catoms(const Node& root) {
     CatomPlan p;
+    p.program = root.has("program");
     if (!root.has("catoms")) return p;
     const Node t = root.at("catoms");
     t.require_table();

@@ -24,6 +24,7 @@ struct CatomPlan {
     double radius = 0.5;
     double spacing = 1.0;
     bool magnets = false;  // [magnets] switched on with a non-zero strength
+    bool program = false;  // a [program] table: every catom runs it
 };
 CatomPlan plan_catoms(const Node& root);
 // The prism's other keys, with the size keys from `plan` (plan_catoms).
