@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include "util/errors.hpp"
@@ -223,11 +224,18 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     std::vector<std::string> hex;
     for (std::uint64_t s : sums) hex.push_back(hex64(s));
     meta["checksums"] = {{"algorithm", "XXH3_64bits"}, {"record_block", kRecordSumBlock}, {"records", hex}};
-    if (extra && !extra->empty()) {
-        meta["extra"] = {{"bytes", extra->size()}, {"xxh3", hex64(XXH3_64bits(extra->data(), extra->size()))}};
-        // The same bytes on every process; the last one writes them, after
-        // every process's impulses.
-        if (domain.rank() == domain.ranks() - 1) f.tail.insert(f.tail.end(), extra->begin(), extra->end());
+    std::uint64_t extra_bytes = 0;
+    if (extra) {
+        // Whole on the last process, which writes it after every process's
+        // impulses; its size and XXH3 go into the head from there.
+        const bool writer = domain.rank() == domain.ranks() - 1;
+        const std::string mine = writer && !extra->empty() ? std::to_string(extra->size()) + " " +
+                                                                  hex64(XXH3_64bits(extra->data(), extra->size()))
+                                                            : std::string();
+        std::istringstream said(domain.all_text(mine, ""));
+        std::string xxh3;
+        if (said >> extra_bytes >> xxh3) meta["extra"] = {{"bytes", extra_bytes}, {"xxh3", xxh3}};
+        if (writer) f.tail.insert(f.tail.end(), extra->begin(), extra->end());
     }
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);
@@ -252,7 +260,7 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     cost[1] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     domain.max(cost, 2);
     return {1, cost[1], cost[0],
-            f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes + (extra ? extra->size() : 0)};
+            f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes + extra_bytes};
 }
 
 namespace {

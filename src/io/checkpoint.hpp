@@ -84,7 +84,8 @@ struct CheckpointCost {
 // Collective: writes every process's owned bodies and impulses, with `meta`
 // (the root's) completed by counts. Throws std::runtime_error naming the file.
 // `extra`: a section written after the impulses (the catom programs' state),
-// with its own XXH3 in the head; the same bytes on every process.
+// with its own XXH3 in the head: whole on the last process, which writes it
+// (the others pass theirs empty; every process passes one or none).
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta,
                       const std::vector<char>* extra = nullptr);

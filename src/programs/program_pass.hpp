@@ -78,10 +78,12 @@ public:
     ProgramCounts totals() const;
     // Everything the next step depends on (each catom's values, magnets,
     // timer, pending messages, program bytes and last neighbours; the step
-    // and counts), for checkpoints: the same bytes on every process
-    // (collective when distributed). load_state takes it back (and sets the
-    // world's magnet switches and values). Throws CheckpointError if it does
-    // not fit this scene.
+    // and counts), for checkpoints, in one format for any number of
+    // processes: on the last process (the checkpoint's writer) and on one;
+    // the other processes get nothing, and send it only their own catoms'
+    // records (collective when distributed). load_state takes it back (and
+    // sets the world's magnet switches and values). Throws CheckpointError if
+    // it does not fit this scene.
     std::vector<char> save_state() const;
     void load_state(World& world, const std::vector<char>& state);
     const ProgramSpec& spec() const { return *spec_; }

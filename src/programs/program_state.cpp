@@ -2,7 +2,8 @@
 // program_pass.hpp): a catom's record travels to its new owner when it
 // migrates; each step's mail goes to the receivers' owners, magnet switches
 // and failures to every process; checkpoints hold every catom's record in
-// catom order whatever the number of processes.
+// catom order whatever the number of processes, gathered on the process
+// that writes them.
 // Trade-off: one sparse exchange for the migrants and one for the mail a
 // step (messages only to the processes that get something, then a
 // non-blocking barrier: no count from every process, so it scales with the
@@ -250,8 +251,9 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
 }
 
 // Every catom's record in catom order, each from the process that owns it
-// (this one's copy for a catom no process owns): the same bytes on every
-// process, whatever their number.
+// (the writer's copy for a catom no process owns): the same bytes whatever
+// the number of processes, made on the last process alone (the others keep
+// only their own records, not the scene's).
 std::vector<char> ProgramPass::save_state() const {
     std::vector<char> out;
     Bytes b(out);
@@ -274,8 +276,12 @@ std::vector<char> ProgramPass::save_state() const {
         Bytes(mine).put(static_cast<std::uint64_t>(one.size()));
         mine.insert(mine.end(), one.begin(), one.end());
     }
+    const auto writer = static_cast<std::size_t>(coll_->ranks() - 1);
+    std::vector<std::vector<char>> send(writer + 1);
+    send[writer] = std::move(mine);
+    const std::vector<std::vector<char>> all = coll_->sparse_to(send, 2);
+    if (static_cast<std::size_t>(coll_->rank()) != writer) return {};
     std::vector<std::pair<const char*, std::size_t>> from(count, {nullptr, 0});  // by catom index
-    const std::vector<std::vector<char>> all = coll_->all_gather(mine);
     for (const std::vector<char>& in : all) {
         for (Bytes r(in, 0); !r.done();) {
             const auto g = r.get<std::uint32_t>();
