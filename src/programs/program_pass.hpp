@@ -83,7 +83,8 @@ public:
     // the other processes get nothing, and send it only their own catoms'
     // records (collective when distributed). load_state takes it back (and
     // sets the world's magnet switches and values). Throws CheckpointError if
-    // it does not fit this scene.
+    // it does not fit this scene. Called once the world holds what this
+    // process owns (after the domain's set-up): it keeps only their records.
     std::vector<char> save_state() const;
     void load_state(World& world, const std::vector<char>& state);
     const ProgramSpec& spec() const { return *spec_; }
@@ -159,14 +160,14 @@ private:
     const World* world_ = nullptr;  // the world last located
     double reach_, edge_ = 0, skin_ = 0;
     // Each owned catom's record by gid, held only while this process owns the
-    // catom (and, after a restart, until the first step has moved what moves);
+    // catom (and, from the set-up, until the first step has moved what moves);
     // sized at its first use (ensure_records) for the catoms owned then.
     GidTable<Catom> records_;
-    // No catom has run anywhere since the start (or the restart): an owned
-    // catom without a record here may start afresh; later it must arrive.
+    // No catom has run anywhere since the start: an owned catom without a
+    // record here may start afresh; later (and after a restart) it must arrive.
     bool unstarted_ = true;
     bool relocated_ = false;  // locate() found the world changed: owned catoms may lack records
-    bool sweep_ = false;      // records of catoms not owned here to drop (after a restart)
+    bool sweep_ = false;      // records of catoms not owned here to drop (made at the set-up, before the first step)
     // This step: the catoms held here (gids, ascending) and their local
     // indices; the owned ones (gids, ascending), their local indices and
     // records, and whether each record changed since its digest and the
@@ -182,8 +183,8 @@ private:
     // Last step's neighbours of catoms that arrived from another process.
     std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> arrived_;
     // This step's neighbours of the owned catoms (keys: owned_) and last
-    // step's (keys: last step's owned catoms, or every catom after a
-    // restart); each owned catom's place in before_ (kNone: none).
+    // step's (keys: last step's owned catoms); each owned catom's place in
+    // before_ (kNone: none).
     Csr now_, before_;
     std::vector<std::uint32_t> before_at_;
     // The candidate neighbours: the catoms listed (listed_k_, gids

@@ -176,7 +176,7 @@ void ProgramPass::transfer(World& world) {
             arrived_[g] = nbrs;  // not owned here last step: its digest is worked out (bind_owned)
         }
     }
-    if (sweep_) {  // after a restart every process held every record: keep the owned ones
+    if (sweep_) {  // records made at the set-up for catoms that moved before the first step: keep the owned ones
         records_.keep_only(scene_.body_count(), [&](std::uint32_t g) { return owned_here(world, g); });
         sweep_ = false;
     }
@@ -315,28 +315,31 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     counts_.messages = b.get<std::uint64_t>();
     counts_.events = b.get<std::uint64_t>();
     if (coll_->rank() != 0) counts_.messages = counts_.events = 0;  // the totals counted once, on the first process
-    now_.keys.resize(count);
-    now_.at.assign(count + 1, 0);
+    located_ = ~0ULL;
+    locate(world);  // the catoms this process owns after the set-up
+    now_.keys = owned_;
+    now_.at.assign(1, 0);
     now_.ids.clear();
     std::size_t at = b.at();
     std::vector<std::uint32_t> nbrs;
-    ensure_records(count);
+    ensure_records(owned_.size());
+    std::unique_ptr<Catom> scratch;  // the records of catoms owned elsewhere are read past
     for (std::size_t k = 0; k < count; ++k) {
         const std::uint32_t g = numbering_.gid(k);
-        std::unique_ptr<Catom>& r = records_.at(g);
+        const bool mine = std::binary_search(owned_.begin(), owned_.end(), g);
+        std::unique_ptr<Catom>& r = mine ? records_.at(g) : scratch;
         if (!r) r = fresh_record(g);
         at = get_catom(*r, g, state, at, nbrs);
-        now_.keys[k] = g;
-        now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
-        now_.at[k + 1] = static_cast<std::uint32_t>(now_.ids.size());
-        world.switch_poles(g, r->magnets ? r->poles_off : World::kAllPolesOff);
+        if (mine) {
+            now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
+            now_.at.push_back(static_cast<std::uint32_t>(now_.ids.size()));
+        }
+        world.switch_poles(g, r->magnets ? r->poles_off : World::kAllPolesOff);  // every process keeps every switch
     }
     if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
-    unstarted_ = true;  // every process holds every catom's state now
-    sweep_ = distributed();
-    last_owned_.clear();
-    located_ = ~0ULL;
-    locate(world);
+    unstarted_ = false;  // every owned catom has its record; those that move later travel with it
+    sweep_ = false;
+    last_owned_ = owned_;
     bind_owned();
     std::fill(dirty_.begin(), dirty_.end(), 1);
     refresh_world(world, true);

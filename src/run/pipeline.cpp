@@ -50,7 +50,6 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     if (checkpoint_) restore(gids);
     plan_stages(scene, options);
     if (stage(Stage::Forces).enabled) make_force_passes();
-    if (checkpoint_ && program_) restore_program();
     snapshot_every_ = stage(Stage::Output).enabled ? options.snapshot_every : 0;
 #ifdef NDEBUG
     invariants_every_ = options.invariants_every > 0 ? options.invariants_every : 100;
@@ -59,6 +58,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
 #endif
     timed(Stage::Migrate, [this] { domain_->setup(*world_, solver_->warm_impulses()); });
     release_free_heap();  // the set-up's temporaries, before the first step's buffers
+    if (checkpoint_ && program_) restore_program();  // the records of the catoms owned here after the set-up
     if (program_) program_->prepare(*world_);  // the records of the catoms owned here, made as the bodies were
     const double collide_before = stages_[static_cast<int>(Stage::Collide)].seconds;
     timed(Stage::Collide, [this] { run_collide(); });
