@@ -46,7 +46,6 @@ bool within(const Vec3& a, const Vec3& b, double bound) {
 // The catoms held here this step (gids ascending), their local indices,
 // and the owned ones; unchanged while the world's bodies are.
 void ProgramPass::locate(const World& world) {
-    world_ = &world;
     if (world.generation() == located_) return;
     located_ = world.generation();
     relocated_ = true;
@@ -99,25 +98,19 @@ void ProgramPass::update_candidates(const World& world) {
 // The neighbours of every owned catom into now_ (keys: owned_), from their
 // candidates, and each one's place in last step's lists (before_at_).
 // Chunks of catoms fill their own lists, joined in order.
-void ProgramPass::find_neighbours() {
+void ProgramPass::find_neighbours(const World& world) {
     std::swap(before_, now_);
     const std::size_t n = owned_.size(), chunks = chunk_count(exec_.loops(), n, 1024);
     std::vector<std::vector<std::uint32_t>> part(chunks);
     now_.keys = owned_;
     now_.at.assign(n + 1, 0);
-    before_at_.resize(n);
+    before_at_ = sorted_places(owned_, before_.keys);
     exec_.loops().run(chunks, n, [&](std::size_t c) {
         std::vector<std::uint32_t> mine;
-        const std::size_t o0 = chunk_begin(n, chunks, c), o1 = chunk_begin(n, chunks, c + 1);
-        // Last step's keys, ascending as owned_ is: one search a chunk, then a walk.
-        auto b = std::lower_bound(before_.keys.begin(), before_.keys.end(), o0 < o1 ? owned_[o0] : 0);
-        for (std::size_t o = o0; o < o1; ++o) {
+        for (std::size_t o = chunk_begin(n, chunks, c); o < chunk_begin(n, chunks, c + 1); ++o) {
             const std::size_t from = mine.size();
-            neighbours_of(owned_[o], owned_local_[o], mine);
+            neighbours_of(world, owned_[o], owned_local_[o], mine);
             now_.at[o + 1] = static_cast<std::uint32_t>(mine.size() - from);
-            while (b != before_.keys.end() && *b < owned_[o]) ++b;
-            const bool had = b != before_.keys.end() && *b == owned_[o];
-            before_at_[o] = had ? static_cast<std::uint32_t>(b - before_.keys.begin()) : IdMap::kNone;
         }
         part[c] = std::move(mine);
     });
@@ -127,12 +120,13 @@ void ProgramPass::find_neighbours() {
 
 // Held catom g's neighbours now (gids, ascending), appended to `out`;
 // `local`: its local index.
-void ProgramPass::neighbours_of(std::uint32_t g, std::uint32_t local, std::vector<std::uint32_t>& out) const {
+void ProgramPass::neighbours_of(const World& world, std::uint32_t g, std::uint32_t local,
+                                std::vector<std::uint32_t>& out) const {
     const std::size_t from = out.size();
     const Vec3& x = xl_[local];
     const double rg = catom_radius(scene_, g) + reach_;
     const auto test = [&](std::uint32_t c) {
-        const std::uint32_t lc = world_->local_of(c);
+        const std::uint32_t lc = world.local_of(c);
         if (lc != IdMap::kNone && within(x, xl_[lc], rg + catom_radius(scene_, c))) out.push_back(c);
     };
     const std::uint32_t l = lidx_.find(g);

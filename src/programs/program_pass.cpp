@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <exception>
 #include <functional>
+#include <numeric>
 
 #include "programs/catom_state.hpp"
 #include "util/errors.hpp"
@@ -245,6 +246,18 @@ std::size_t ProgramPass::Numbering::index(std::uint32_t g) const {
     return static_cast<std::size_t>(std::lower_bound(listed_.begin(), listed_.end(), g) - listed_.begin());
 }
 
+// Each of `keys` (ascending) by its place in `in` (ascending), or IdMap::kNone:
+// one walk over both.
+std::vector<std::uint32_t> ProgramPass::sorted_places(const std::vector<std::uint32_t>& keys,
+                                                      const std::vector<std::uint32_t>& in) {
+    std::vector<std::uint32_t> out(keys.size(), IdMap::kNone);
+    for (std::size_t o = 0, b = 0; o < keys.size(); ++o) {
+        while (b < in.size() && in[b] < keys[o]) ++b;
+        if (b < in.size() && in[b] == keys[o]) out[o] = static_cast<std::uint32_t>(b);
+    }
+    return out;
+}
+
 std::uint32_t ProgramPass::Csr::place(std::uint32_t g) const {
     const auto it = std::lower_bound(keys.begin(), keys.end(), g);
     return it != keys.end() && *it == g ? static_cast<std::uint32_t>(it - keys.begin()) : IdMap::kNone;
@@ -296,9 +309,9 @@ void ProgramPass::bind_owned() {
     if (digest_of_ == owned_) return;
     std::vector<std::uint64_t> digest(n, 0);
     std::vector<std::uint8_t> dirty(n, 1);
-    for (std::size_t o = 0, b = 0; o < n; ++o) {
-        while (b < digest_of_.size() && digest_of_[b] < owned_[o]) ++b;
-        if (b < digest_of_.size() && digest_of_[b] == owned_[o]) digest[o] = digest_[b], dirty[o] = dirty_[b];
+    const std::vector<std::uint32_t> was = sorted_places(owned_, digest_of_);
+    for (std::size_t o = 0; o < n; ++o) {
+        if (was[o] != IdMap::kNone) digest[o] = digest_[was[o]], dirty[o] = dirty_[was[o]];
     }
     digest_.swap(digest);
     dirty_.swap(dirty);
@@ -378,7 +391,7 @@ void ProgramPass::run_handlers(const World& world, const std::vector<std::uint32
                 range.begin = now_.ids.data() + now_.at[at], range.end = now_.ids.data() + now_.at[at + 1];
                 neighbour_changes(at, lost, gained);
             } else {  // worked out only if a handler asks
-                range.list = [this, g, local](std::vector<std::uint32_t>& out) { neighbours_of(g, local, out); };
+                range.list = [this, &world, g, local](std::vector<std::uint32_t>& out) { neighbours_of(world, g, local, out); };
                 range.listed = &listed;
             }
             if (!c.outbox.empty()) c.outbox.clear();
@@ -506,17 +519,13 @@ void ProgramPass::apply(World& world, double time) {
     // With neighbour events, every owned catom's neighbours; without, the
     // candidates made ready for the catoms that run (a handler that asks gets
     // its catom's neighbours then).
-    std::vector<std::uint32_t> which;
-    if (spec_->neighbour_events) {
-        which.resize(owned_.size());
-        for (std::size_t o = 0; o < which.size(); ++o) which[o] = static_cast<std::uint32_t>(o);
-    } else {
-        which = due(time);
-    }
+    std::vector<std::uint32_t> which(spec_->neighbour_events ? owned_.size() : 0);
+    if (spec_->neighbour_events) std::iota(which.begin(), which.end(), 0u);
+    else which = due(time);
     if (!which.empty()) {
         SubstageTimer t(counts_.parts, "neighbours");
         update_candidates(world);
-        if (spec_->neighbour_events) find_neighbours();
+        if (spec_->neighbour_events) find_neighbours(world);
     }
     {
         SubstageTimer t(counts_.parts, "handlers");

@@ -118,6 +118,8 @@ private:
         std::uint32_t place(std::uint32_t g) const;
     };
 
+    static std::vector<std::uint32_t> sorted_places(const std::vector<std::uint32_t>& keys,
+                                                    const std::vector<std::uint32_t>& in);
     void locate(const World& world);
     bool owned_here(const World& world, std::uint32_t g) const;
     Catom* record(std::uint32_t g) const;
@@ -126,8 +128,8 @@ private:
     void bind_owned();
     void transfer(World& world);
     void update_candidates(const World& world);
-    void find_neighbours();
-    void neighbours_of(std::uint32_t g, std::uint32_t local, std::vector<std::uint32_t>& out) const;
+    void find_neighbours(const World& world);
+    void neighbours_of(const World& world, std::uint32_t g, std::uint32_t local, std::vector<std::uint32_t>& out) const;
     const Vec3& reference(std::uint32_t g) const;
     bool stale() const;
     void add_arrivals();
@@ -157,7 +159,6 @@ private:
     Numbering numbering_;
     Collectives single_;
     const Collectives* coll_ = &single_;
-    const World* world_ = nullptr;  // the world last located
     double reach_, edge_ = 0, skin_ = 0;
     // Each owned catom's record by gid, held only while this process owns the
     // catom (and, from the set-up, until the first step has moved what moves);

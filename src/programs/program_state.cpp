@@ -324,9 +324,10 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     std::vector<std::uint32_t> nbrs;
     ensure_records(owned_.size());
     std::unique_ptr<Catom> scratch;  // the records of catoms owned elsewhere are read past
-    for (std::size_t k = 0; k < count; ++k) {
+    for (std::size_t k = 0, next = 0; k < count; ++k) {  // gids ascending, as owned_: `next` walks it
         const std::uint32_t g = numbering_.gid(k);
-        const bool mine = std::binary_search(owned_.begin(), owned_.end(), g);
+        const bool mine = next < owned_.size() && owned_[next] == g;
+        next += mine;
         std::unique_ptr<Catom>& r = mine ? records_.at(g) : scratch;
         if (!r) r = fresh_record(g);
         at = get_catom(*r, g, state, at, nbrs);
