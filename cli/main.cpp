@@ -156,6 +156,7 @@ int run_command(const RunArgs& a) {
     opt.solver = solver_of(a, scene);
     opt.snapshot_path = a.snapshot;
     opt.snapshot_every = a.snapshot.empty() ? 0 : static_cast<int>(a.snapshot_every);
+    opt.planned_steps = steps;
     opt.record_trajectory = !a.trajectory.empty() || !a.reference.empty();
     opt.dump_path = a.dump;
     opt.invariants_every = a.check_every;

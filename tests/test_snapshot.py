@@ -259,6 +259,32 @@ class TwoRanks(unittest.TestCase):
                 self.assertEqual(contents(a), contents(b))
                 self.assertEqual(a["particles/all/position/value"].shape, (4, 2000, 3))
 
+    def test_stopped_early(self):
+        """A run of 2 processes stopped by SIGTERM long before the frames it planned: every
+        series is cut to the frames written (several processes take the space of all planned
+        ones at the start), and the XDMF's items have the datasets' shapes."""
+        self.assertTrue(MPIEXEC, "needs mpiexec")
+        with tempfile.TemporaryDirectory(prefix="parode_stopped_") as d:
+            h5 = os.path.join(d, "s.h5")
+            p = start_run([TENNIS, "--steps", "20000", "--set", "catoms.count=500", "--snapshot", h5,
+                           "--checkpoint", os.path.join(d, "c.ckpt")], 2)
+            time.sleep(2.0)
+            os.kill(p.pid, signal.SIGTERM)
+            p.wait(timeout=120)
+            with h5py.File(h5, "r") as f:
+                all_ = f["particles/all"]
+                n = len(all_["position/step"])
+                self.assertTrue(0 < n < 20001, n)
+                np.testing.assert_array_equal(all_["position/step"][:], np.arange(n))
+                self.assertEqual(all_["position/time"].shape, (n,))
+                for name in Crash.ELEMENTS:
+                    self.assertEqual(all_[name + "/value"].shape[0], n, name)
+                root = ET.parse(os.path.join(d, "s.xdmf")).getroot()
+                Xdmf.check_frames(self, root, f, 500)
+                for item in root.iter("DataItem"):
+                    if item.get("Format") == "HDF":
+                        Xdmf.check_heavy(self, item, d, f)
+
 
 class Crash(unittest.TestCase):
     """Runs writing a frame every step, killed with SIGKILL at seeded random moments (every
@@ -293,10 +319,14 @@ class Crash(unittest.TestCase):
         with h5py.File(h5, "r", swmr=swmr) as f:  # one process: SWMR, read as a SWMR reader
             all_, want = f["particles/all"], ref["particles/all"]
             n = len(all_["position/step"])
-            self.assertEqual(len(all_["position/time"]), n)
+            # One process grows each series by the frame (+ 1: a frame begun); several hold
+            # the space of every planned frame from the start: longer than `step` until the end.
+            held = (n, n + 1) if swmr else (self.STEPS + 1,)
+            self.assertIn(len(all_["position/time"]), (n,) if swmr else held)
             np.testing.assert_array_equal(all_["position/step"][:], want["position/step"][:n])
+            np.testing.assert_array_equal(all_["position/time"][:n], want["position/time"][:n])
             for name in self.ELEMENTS:
-                self.assertIn(all_[name + "/value"].shape[0], (n, n + 1), name)  # + 1: a frame begun
+                self.assertIn(all_[name + "/value"].shape[0], held, name)
                 if n:
                     np.testing.assert_array_equal(all_[name + "/value"][:n], want[name + "/value"][:n], name)
         xdmf = os.path.splitext(h5)[0] + ".xdmf"

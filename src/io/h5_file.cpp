@@ -121,16 +121,25 @@ void File::attribute(hid_t obj, const std::string& name, double value) const {
 }
 
 Id File::dataset(hid_t parent, const std::string& name, Type type, const std::vector<hsize_t>& dims) const {
-    std::vector<hsize_t> max = dims;
+    if (dims[0] == 0) return series(parent, name, type, dims, 1, false);
     Id create(check(H5Pcreate(H5P_DATASET_CREATE), "dataset list"), H5Pclose);
     check(H5Pset_fill_time(create.get(), H5D_FILL_TIME_NEVER), "fill time");  // every element is written
-    if (dims[0] == 0) {
-        max[0] = H5S_UNLIMITED;
-        std::vector<hsize_t> chunk = dims;
-        chunk[0] = 1;
-        if (chunk.size() > 1) chunk[1] = std::max<hsize_t>(1, std::min(chunk[1], kChunkRows));
-        check(H5Pset_chunk(create.get(), static_cast<int>(chunk.size()), chunk.data()), "chunks of " + name);
-    }
+    Id space(check(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), "space of " + name), H5Sclose);
+    return Id(check(H5Dcreate2(parent, name.c_str(), file_type(type), space.get(), H5P_DEFAULT, create.get(), H5P_DEFAULT),
+                    "dataset " + name),
+              H5Dclose);
+}
+
+Id File::series(hid_t parent, const std::string& name, Type type, const std::vector<hsize_t>& dims, hsize_t frames,
+                bool early) const {
+    std::vector<hsize_t> max = dims, chunk = dims;
+    max[0] = H5S_UNLIMITED;
+    chunk[0] = std::max<hsize_t>(1, std::min(frames, kChunkRows));
+    if (chunk.size() > 1) chunk[1] = std::max<hsize_t>(1, std::min(chunk[1], kChunkRows));
+    Id create(check(H5Pcreate(H5P_DATASET_CREATE), "dataset list"), H5Pclose);
+    check(H5Pset_fill_time(create.get(), H5D_FILL_TIME_NEVER), "fill time");  // every element is written
+    check(H5Pset_chunk(create.get(), static_cast<int>(chunk.size()), chunk.data()), "chunks of " + name);
+    if (early) check(H5Pset_alloc_time(create.get(), H5D_ALLOC_TIME_EARLY), "allocation of " + name);
     Id space(check(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), "space of " + name), H5Sclose);
     return Id(check(H5Dcreate2(parent, name.c_str(), file_type(type), space.get(), H5P_DEFAULT, create.get(), H5P_DEFAULT),
                     "dataset " + name),
@@ -142,7 +151,7 @@ void File::extend(hid_t dset, hsize_t n) const {
     std::vector<hsize_t> dims(static_cast<std::size_t>(check(H5Sget_simple_extent_ndims(space.get()), "dataset rank")));
     H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
     dims[0] = n;
-    check(H5Dset_extent(dset, dims.data()), "growing a dataset");
+    check(H5Dset_extent(dset, dims.data()), "sizing a dataset");
 }
 
 void File::write(hid_t dset, Type type, const std::vector<hsize_t>& start, const std::vector<hsize_t>& count,

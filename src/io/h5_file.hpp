@@ -9,8 +9,12 @@
 // format 1.10) once its objects exist, so that its metadata reach the disk in
 // an order that keeps it readable at every moment; a file of several
 // processes (MPI-IO, where HDF5 has no SWMR) keeps format 1.8, whose
-// superblock carries no "open for writing" flag. Both are flushed after every
-// frame by the writer. Strings are variable-length UTF-8, as h5py writes them.
+// superblock carries no "open for writing" flag, and whose metadata reach the
+// disk in no fixed order: the writer then takes the space of every frame it
+// expects at creation (`series` with `early`), so that a frame changes no
+// metadata but its step count's extent (h5md.cpp). Both are flushed after
+// every frame by the writer. Strings are variable-length UTF-8, as h5py
+// writes them.
 // Trade-off: the C API (the C++ binding is not supported with parallel HDF5)
 // behind a dozen functions, rather than a general wrapper.
 #pragma once
@@ -61,6 +65,7 @@ public:
     // file of one process (nothing for several).
     void start_swmr() const;
     bool swmr() const { return swmr_; }
+    bool single() const { return single_; }  // one process (HDF5's POSIX driver)
     // Collective: what was written so far, to the operating system.
     void flush() const;
 
@@ -77,7 +82,13 @@ public:
     // A dataset of `dims`; dims[0] == 0 makes it grow along its first axis
     // (frames), in chunks of one frame by at most 2^20 rows.
     Id dataset(hid_t parent, const std::string& name, Type type, const std::vector<hsize_t>& dims) const;
-    // Grows `dset`'s first axis to `n`.
+    // A time series: its first axis (frames) holds dims[0] frames now and may
+    // grow or shrink; chunks of `frames` frames by at most 2^20 rows. `early`:
+    // the file space of every chunk within the extent is taken when the
+    // extent is set (never filled: every element is written).
+    Id series(hid_t parent, const std::string& name, Type type, const std::vector<hsize_t>& dims, hsize_t frames,
+              bool early) const;
+    // Sets `dset`'s first axis to `n` frames (grows or shrinks it).
     void extend(hid_t dset, hsize_t n) const;
     // Writes the box `start`, `count` of `dset` from `data` (contiguous, in
     // row-major order); a process with nothing to write passes a zero count.

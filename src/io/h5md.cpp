@@ -94,7 +94,8 @@ Extent scene_extent(const Scene& scene, const World& world, const Collectives& d
 
 class H5md final : public SnapshotWriter {
 public:
-    H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain);
+    H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain,
+         std::size_t frames);
     ~H5md() override;
     void write(const World& world, long step, double time) override;
     void close() override;
@@ -107,6 +108,9 @@ private:
     void write_statics(const StaticMesh& mesh);
     void make_series(const h5::Id& group);
     void write_frame(std::size_t element, hsize_t frame, const void* data);
+    void write_values(const std::vector<double>& rows, std::size_t values, hsize_t frame);
+    void count_frame(hsize_t frame, long step, double time);
+    void hold(hsize_t frames);
     // The whole of a small dataset, from the root (the others write nothing).
     void write_whole(const h5::Id& parent, const std::string& name, Type type, std::vector<hsize_t> dims, const void* data);
 
@@ -115,6 +119,11 @@ private:
     std::string xdmf_;
     h5::File file_;
     IdBlock block_;
+    // Several processes: the values and times of `held_` frames have their
+    // file space from the start (grown by doubling past it, cut to the
+    // frames written at the end); 0: one process, every series grows a
+    // frame at a time (SWMR keeps that safe).
+    hsize_t held_ = 0;
     h5::Id step_, time_;
     std::array<h5::Id, kElements.size()> value_;
     std::vector<std::string> program_;  // the catom program's value names
@@ -123,9 +132,11 @@ private:
     std::chrono::steady_clock::time_point xdmf_written_;
 };
 
-H5md::H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain)
+H5md::H5md(const std::string& path, const Scene& scene, const World& world, const Collectives& domain,
+           std::size_t frames)
     : scene_(scene), domain_(domain), xdmf_(xdmf_path(path)), file_(path, domain),
-      block_(id_block(world.global_body_count(), domain.rank(), domain.ranks())) {
+      block_(id_block(world.global_body_count(), domain.rank(), domain.ranks())),
+      held_(file_.single() ? 0 : std::max<hsize_t>(frames, 1)) {
     const Extent extent = scene_extent(scene, world, domain);
     const StaticMesh mesh = static_mesh(scene, extent);
     write_h5md_group();
@@ -204,17 +215,19 @@ void H5md::write_fixed(const h5::Id& group) {
 
 void H5md::make_series(const h5::Id& group) {
     const hsize_t n = scene_.body_count();
+    const bool early = held_ > 0;
     for (std::size_t e = 0; e < kElements.size(); ++e) {
         h5::Id g = file_.group(group.get(), kElements[e].name);
-        if (e == 0) {
-            step_ = file_.dataset(g.get(), "step", Type::I64, {0});
-            time_ = file_.dataset(g.get(), "time", Type::F64, {0});
+        if (e == 0) {  // one chunk for many frames: a frame takes no file space of its own
+            step_ = file_.series(g.get(), "step", Type::I64, {0}, std::max<hsize_t>(held_, 1), early);
+            time_ = file_.series(g.get(), "time", Type::F64, {held_}, std::max<hsize_t>(held_, 1), early);
             file_.attribute(time_.get(), "unit", std::string("s"));
         } else {
             file_.link(step_.get(), g.get(), "step");
             file_.link(time_.get(), g.get(), "time");
         }
-        value_[e] = file_.dataset(g.get(), "value", kElements[e].type, {0, n, static_cast<hsize_t>(kElements[e].dims)});
+        value_[e] = file_.series(g.get(), "value", kElements[e].type, {held_, n, static_cast<hsize_t>(kElements[e].dims)}, 1,
+                                 early);
         if (*kElements[e].unit) file_.attribute(value_[e].get(), "unit", std::string(kElements[e].unit));
     }
     // The catom program's values: program_<name>, a scalar per body [F][N].
@@ -223,9 +236,10 @@ void H5md::make_series(const h5::Id& group) {
         h5::Id g = file_.group(group.get(), "program_" + name);
         file_.link(step_.get(), g.get(), "step");
         file_.link(time_.get(), g.get(), "time");
-        program_value_.push_back(file_.dataset(g.get(), "value", Type::F64, {0, n}));
+        program_value_.push_back(file_.series(g.get(), "value", Type::F64, {held_, n}, 1, early));
     }
     layout_.values = program_;
+    layout_.held = held_;
 }
 
 void H5md::write_statics(const StaticMesh& mesh) {
@@ -249,14 +263,31 @@ void H5md::write_whole(const h5::Id& parent, const std::string& name, Type type,
     file_.write(d.get(), type, std::vector<hsize_t>(dims.size(), 0), dims, data);
 }
 
-// The values first, then step and time: their length is the number of
-// complete frames whenever the file is read. Flushed, then the XDMF (at most
-// every kXdmfSeconds) lists the frames on the disk.
+// The values and the time first, then the step: its length is the number of
+// complete frames whenever the file is read. One process grows every series
+// by the frame and flushes in SWMR mode, which orders the metadata's writes.
+// Several write a frame into space taken before (only the step's extent
+// changes, after every process has written its block), then flush. The XDMF
+// (at most every kXdmfSeconds) lists the frames on the disk.
 void H5md::write(const World& world, long step, double time) {
     const std::size_t values = program_.size(), width = kRow + values;
     const auto row = [&world, values](std::size_t i, double* out) { state_row(world, i, out, values); };
     const std::vector<double> rows = block_rows(domain_, world, static_cast<int>(width), row);
     const hsize_t f = layout_.steps.size();
+    if (held_ && f == held_) hold(2 * held_);
+    write_values(rows, values, f);
+    count_frame(f, step, time);
+    layout_.steps.push_back(step);
+    layout_.times.push_back(time);
+    const auto now = std::chrono::steady_clock::now();
+    if (domain_.root() && (f == 0 || now - xdmf_written_ >= std::chrono::seconds(kXdmfSeconds))) {
+        write_xdmf(xdmf_, layout_);
+        xdmf_written_ = now;
+    }
+}
+
+void H5md::write_values(const std::vector<double>& rows, std::size_t values, hsize_t f) {
+    const std::size_t width = kRow + values;
     std::vector<double> column;
     int at = 0;
     for (std::size_t e = 0; e < kXAxis; ++e) {
@@ -269,33 +300,47 @@ void H5md::write(const World& world, long step, double time) {
     write_frame(kXAxis, f, axes.data());
     for (std::size_t k = 0; k < values; ++k) {
         columns(rows, block_.count, width, kRow + static_cast<int>(k), 1, column);
-        file_.extend(program_value_[k].get(), f + 1);
+        if (!held_) file_.extend(program_value_[k].get(), f + 1);
         file_.write(program_value_[k].get(), Type::F64, {f, block_.first}, {1, block_.count}, column.data());
-    }
-    const std::int64_t s = step;
-    const hsize_t one = domain_.root() ? 1 : 0;
-    file_.extend(step_.get(), f + 1);
-    file_.extend(time_.get(), f + 1);
-    file_.write(step_.get(), Type::I64, {f}, {one}, &s);
-    file_.write(time_.get(), Type::F64, {f}, {one}, &time);
-    file_.flush();
-    layout_.steps.push_back(step);
-    layout_.times.push_back(time);
-    const auto now = std::chrono::steady_clock::now();
-    if (domain_.root() && (f == 0 || now - xdmf_written_ >= std::chrono::seconds(kXdmfSeconds))) {
-        write_xdmf(xdmf_, layout_);
-        xdmf_written_ = now;
     }
 }
 
+void H5md::count_frame(hsize_t f, long step, double time) {
+    const std::int64_t s = step;
+    const hsize_t one = domain_.root() ? 1 : 0;
+    if (!held_) file_.extend(time_.get(), f + 1);
+    file_.write(time_.get(), Type::F64, {f}, {one}, &time);
+    if (held_) {  // every process's blocks are written before the count grows
+        double none = 0;
+        domain_.max(&none, 1);
+    }
+    file_.extend(step_.get(), f + 1);
+    file_.write(step_.get(), Type::I64, {f}, {one}, &s);
+    file_.flush();
+}
+
 void H5md::write_frame(std::size_t e, hsize_t f, const void* data) {
-    file_.extend(value_[e].get(), f + 1);
+    if (!held_) file_.extend(value_[e].get(), f + 1);
     file_.write(value_[e].get(), kElements[e].type, {f, block_.first, 0},
                 {1, block_.count, static_cast<hsize_t>(kElements[e].dims)}, data);
 }
 
+// The values' and times' space for `frames` frames (several processes).
+// Growing past the planned frames takes new space and changes the chunk
+// index, flushed before the next frame counts; only then could a kill during
+// that flush leave the index half written.
+void H5md::hold(hsize_t frames) {
+    for (h5::Id& v : value_) file_.extend(v.get(), frames);
+    for (h5::Id& v : program_value_) file_.extend(v.get(), frames);
+    file_.extend(time_.get(), frames);
+    held_ = frames;
+    layout_.held = frames;
+    file_.flush();
+}
+
 void H5md::close() {
     if (file_.id() < 0) return;
+    if (held_ && held_ != layout_.steps.size()) hold(layout_.steps.size());  // a run that stopped early
     step_.reset();
     time_.reset();
     for (h5::Id& v : value_) v.reset();
@@ -307,8 +352,8 @@ void H5md::close() {
 }  // namespace
 
 std::unique_ptr<SnapshotWriter> make_h5md_writer(const std::string& path, const Scene& scene, const World& world,
-                                                 const Collectives& domain) {
-    return std::make_unique<H5md>(path, scene, world, domain);
+                                                 const Collectives& domain, std::size_t frames) {
+    return std::make_unique<H5md>(path, scene, world, domain, frames);
 }
 
 std::string h5md_library() {

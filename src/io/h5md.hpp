@@ -21,11 +21,14 @@
 // write together: each its contiguous block of ids (domain/gather.hpp
 // block_rows), through MPI-IO with independent transfers when distributed, so
 // the file holds the one-process data whatever the number of processes.
-// A frame's values are written before its step and time, and the file is
+// A frame's values and time are written before its step, and the file is
 // flushed after each frame: a run killed at any moment leaves the frames
 // counted by `step` complete (one process: SWMR mode, format 1.10, readable
 // with h5py's swmr=True or after `h5clear -s`; several: format 1.8, see
-// h5_file.hpp); the XDMF beside it lists only frames already flushed.
+// h5_file.hpp, whose values and time hold the space of every frame the run
+// plans from the start, so a killed file's value and time datasets may be
+// longer than `step`, and a completed one's are not); the XDMF beside it
+// lists only frames already flushed.
 // Strings (units, names) are variable-length UTF-8.
 // Trade-off: one chunk per frame and block of 2^20 bodies, so a frame is
 // written and read in large pieces; uncompressed, so that any reader (XDMF
@@ -41,8 +44,10 @@
 namespace parode {
 
 // Collective; creates the file and its XDMF, writes nothing of the state yet.
+// `frames`: how many the run will write (0: not known), the file space several
+// processes take at once.
 std::unique_ptr<SnapshotWriter> make_h5md_writer(const std::string& path, const Scene& scene, const World& world,
-                                                 const Collectives& domain);
+                                                 const Collectives& domain, std::size_t frames);
 // The HDF5 library: "1.10.8 parallel" or "1.10.8 serial".
 std::string h5md_library();
 

@@ -65,13 +65,15 @@ std::string hdf5_version() {
 }
 
 std::unique_ptr<SnapshotWriter> make_snapshot_writer(const std::string& path, const Scene& scene, const World& world,
-                                                     const Collectives& domain, long step, double time) {
+                                                     const Collectives& domain, long step, double time,
+                                                     std::size_t frames) {
     std::unique_ptr<SnapshotWriter> w;
     if (is_h5md_path(path)) {
 #ifdef PARODE_HAVE_HDF5
-        w = make_h5md_writer(path, scene, world, domain);
+        w = make_h5md_writer(path, scene, world, domain, frames);
 #else
         (void)scene;
+        (void)frames;
         throw std::invalid_argument("--snapshot " + path + ": this parode was built without HDF5, so it cannot write "
                                     "H5MD; install libhdf5-dev (libhdf5-openmpi-dev with MPI) and rebuild, or name a "
                                     ".csv file");

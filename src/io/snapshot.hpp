@@ -30,9 +30,11 @@ bool is_h5md_path(const std::string& path);
 // "1.10.8 parallel" or "1.10.8 serial"; empty in a build without HDF5.
 std::string hdf5_version();
 // Opens the snapshot files and writes the current state as the first frame
-// (collective). Throws OutputError when a file cannot be written, and
+// (collective). `frames`: how many the run will write, this one included (0:
+// not known). Throws OutputError when a file cannot be written, and
 // std::invalid_argument for an H5MD name in a build without HDF5.
 std::unique_ptr<SnapshotWriter> make_snapshot_writer(const std::string& path, const Scene& scene, const World& world,
-                                                     const Collectives& domain, long step, double time);
+                                                     const Collectives& domain, long step, double time,
+                                                     std::size_t frames);
 
 }  // namespace parode

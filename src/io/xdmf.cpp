@@ -1,6 +1,7 @@
 // The XDMF description of an H5MD snapshot (see xdmf.hpp).
 #include "io/xdmf.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -30,7 +31,7 @@ std::string slab(const XdmfLayout& l, const std::string& element, std::size_t f,
     std::ostringstream os;
     os << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n << ' ' << w << "\" Type=\"HyperSlab\">"
        << "<DataItem Dimensions=\"3 3\" Format=\"XML\">" << f << " 0 0 1 1 1 1 " << n << ' ' << w << "</DataItem>"
-       << heavy(l, std::string(kH5mdGroup) + "/" + element + "/value", std::to_string(l.steps.size()) + " " + n + " " + w,
+       << heavy(l, std::string(kH5mdGroup) + "/" + element + "/value", std::to_string(std::max(l.held, l.steps.size())) + " " + n + " " + w,
                 "Float", bytes)
        << "</DataItem>";
     return os.str();
@@ -42,7 +43,7 @@ std::string slab2(const XdmfLayout& l, const std::string& element, std::size_t f
     std::ostringstream os;
     os << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n << "\" Type=\"HyperSlab\">"
        << "<DataItem Dimensions=\"3 2\" Format=\"XML\">" << f << " 0 1 1 1 " << n << "</DataItem>"
-       << heavy(l, std::string(kH5mdGroup) + "/" + element + "/value", std::to_string(l.steps.size()) + " " + n, "Float",
+       << heavy(l, std::string(kH5mdGroup) + "/" + element + "/value", std::to_string(std::max(l.held, l.steps.size())) + " " + n, "Float",
                 "8")
        << "</DataItem>";
     return os.str();

@@ -20,6 +20,7 @@ struct XdmfLayout {
     std::uint64_t bodies = 0;
     std::vector<long> steps;     // one grid per frame
     std::vector<double> times;
+    std::size_t held = 0;  // frames the value datasets hold, when more than steps.size()
     std::size_t quads = 0, hexes = 0;  // static cells (0: no grid)
     std::vector<std::string> values;   // the catom program's values: program_<name>, [F][N]
 };

@@ -75,7 +75,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
         trajectory_->frames.push_back(capture_frame(*world_, initial_, steps_, steps_ * scene.dt, collectives()));
     }
     timed(Stage::Output, [&] {
-        snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, collectives(), steps_, steps_ * scene.dt);
+        snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, collectives(), steps_, steps_ * scene.dt,
+                                         planned_frames(options));
     });
 }
 
@@ -294,6 +295,13 @@ void Pipeline::run_observe() {
     guard_->check_observed(*world_, last_, steps_);
     if (checker_) checker_->observe(*world_, last_);
     if (trajectory_) trajectory_->frames.push_back(capture_frame(*world_, last_, steps_, steps_ * scene_.dt, collectives()));
+}
+
+// The frames of the snapshot file: this step's and every K-th step's to come
+// (0: not known).
+std::size_t Pipeline::planned_frames(const RunOptions& options) const {
+    if (options.planned_steps < 0 || snapshot_every_ <= 0) return 0;
+    return static_cast<std::size_t>(1 + (steps_ + options.planned_steps) / snapshot_every_ - steps_ / snapshot_every_);
 }
 
 void Pipeline::run_output() { snapshot_->write(*world_, steps_, steps_ * scene_.dt); }

@@ -52,6 +52,7 @@ struct RunOptions {
     std::string domain = "single";     // ... of its `domain`: "single", or "mpi" under a launcher
     std::string snapshot_path;  // snapshot file (io/snapshot.hpp: H5MD or CSV); empty: no output stage
     int snapshot_every = 0;
+    long planned_steps = -1;  // the steps this run will take (-1: not known); sizes the snapshot file ahead
     bool record_trajectory = false;  // keep a Frame per observed step (and step 0)
     std::string dump_path;           // guard: where to write the last good state on failure
     Decomposition* decomposition = nullptr;  // a caller's own (a test's stand-in), instead of `domain`
@@ -149,6 +150,7 @@ private:
     void run_solve();
     void run_observe();
     void run_output();
+    std::size_t planned_frames(const RunOptions& options) const;
     template <class F>
     void timed(Stage s, F&& f);
 
