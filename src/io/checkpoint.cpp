@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -458,18 +459,47 @@ nlohmann::json verify_checkpoint(const Checkpoint& c, std::vector<std::uint64_t>
             {"impulse_pieces", pieces.size()}};
 }
 
-std::vector<char> read_extra(const Checkpoint& c) {
-    if (!c.meta.contains("extra")) return {};
-    const std::uint64_t n = c.meta.at("extra").at("bytes").get<std::uint64_t>();
-    std::vector<char> out(static_cast<std::size_t>(n));
-    std::ifstream in(c.path, std::ios::binary);
-    in.seekg(static_cast<std::streamoff>(c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes));
-    in.read(out.data(), static_cast<std::streamsize>(n));
+namespace {
+
+// The checksum's reads, and the windows handed out (a record's length is
+// known only once read, so a window is read past and refilled).
+constexpr std::size_t kExtraRead = std::size_t{4} << 20, kExtraWindow = std::size_t{64} << 10;
+
+std::uint64_t extra_at(const Checkpoint& c) { return c.head_bytes + c.bodies * kRecordBytes + c.impulses * kImpulseBytes; }
+
+}  // namespace
+
+ExtraReader::ExtraReader(const Checkpoint& c) : path_(c.path), in_(c.path, std::ios::binary) {
+    if (!c.meta.contains("extra")) return;
+    size_ = c.meta.at("extra").at("bytes").get<std::uint64_t>();
+    in_.seekg(static_cast<std::streamoff>(extra_at(c)));
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
+    XXH3_64bits_reset(state.get());
+    std::vector<char> window(kExtraRead);
+    for (std::uint64_t left = size_; left > 0 && in_;) {
+        const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left, window.size()));
+        in_.read(window.data(), static_cast<std::streamsize>(n));
+        XXH3_64bits_update(state.get(), window.data(), n);
+        left -= n;
+    }
     const std::string want = c.meta.at("extra").value("xxh3", std::string("?"));
-    const std::string got = in ? hex64(XXH3_64bits(out.data(), out.size())) : std::string("(truncated)");
-    if (got != want) damaged(c.path, "the catom programs' state (" + std::to_string(n) + " bytes): checksum " + got +
+    const std::string got = in_ ? hex64(XXH3_64bits_digest(state.get())) : std::string("(truncated)");
+    if (got != want) damaged(c.path, "the catom programs' state (" + std::to_string(size_) + " bytes): checksum " + got +
                                          ", written " + want);
-    return out;
+    in_.seekg(static_cast<std::streamoff>(extra_at(c)));
+    left_ = size_;
+}
+
+bool ExtraReader::refill(std::vector<char>& window, std::size_t& at) {
+    window.erase(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(at));
+    at = 0;
+    if (left_ == 0) return false;
+    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left_, kExtraWindow)), kept = window.size();
+    window.resize(kept + n);
+    in_.read(window.data() + kept, static_cast<std::streamsize>(n));
+    if (!in_) throw CheckpointError(path_ + ": the catom programs' state could not be read again after its check");
+    left_ -= n;
+    return true;
 }
 
 }  // namespace parode

@@ -41,6 +41,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -89,9 +90,23 @@ struct CheckpointCost {
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta,
                       const std::vector<char>* extra = nullptr);
-// That section, its checksum checked (CheckpointError if it differs); empty
-// when the checkpoint has none.
-std::vector<char> read_extra(const Checkpoint& c);
+// That section, read in windows of a few MB, so that no process of a restart
+// holds the scene's catom records at once: its XXH3 is checked first,
+// streamed (CheckpointError if it differs), then `refill` hands the bytes
+// out in order.
+class ExtraReader {
+public:
+    explicit ExtraReader(const Checkpoint& c);
+    std::uint64_t size() const { return size_; }  // 0: the checkpoint has none
+    // Drops window[0, at) and appends the next unread bytes (at most a
+    // window's worth); at becomes 0. False when none were left to append.
+    bool refill(std::vector<char>& window, std::size_t& at);
+
+private:
+    std::string path_;
+    std::ifstream in_;
+    std::uint64_t size_ = 0, left_ = 0;
+};
 // The header of a checkpoint, its checksum checked. Throws CheckpointError
 // naming the file and what is wrong with it (std::invalid_argument when it
 // cannot be opened).

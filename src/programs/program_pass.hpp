@@ -51,6 +51,8 @@
 
 namespace parode {
 
+class ExtraReader;  // io/checkpoint.hpp
+
 struct ProgramCounts {
     std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: this process's (totals(): all)
     double seconds = 0;                                  // this process's
@@ -81,12 +83,13 @@ public:
     // and counts), for checkpoints, in one format for any number of
     // processes: on the last process (the checkpoint's writer) and on one;
     // the other processes get nothing, and send it only their own catoms'
-    // records (collective when distributed). load_state takes it back (and
+    // records (collective when distributed). load_state takes it back, read
+    // window by window from the checkpoint (and
     // sets the world's magnet switches and values). Throws CheckpointError if
     // it does not fit this scene. Called once the world holds what this
     // process owns (after the domain's set-up): it keeps only their records.
     std::vector<char> save_state() const;
-    void load_state(World& world, const std::vector<char>& state);
+    void load_state(World& world, ExtraReader& state);
     const ProgramSpec& spec() const { return *spec_; }
     // The scene's catoms: their number, their gids in order, and value k of
     // every catom (after the last step; collective when distributed).
@@ -151,6 +154,8 @@ private:
     void put_catom(std::uint32_t g, std::vector<char>& out) const;
     std::size_t get_catom(Catom& c, std::uint32_t g, const std::vector<char>& in, std::size_t at,
                           std::vector<std::uint32_t>& nbrs) const;
+    std::size_t next_catom(Catom& c, std::uint32_t g, ExtraReader& state, std::vector<char>& window, std::size_t at,
+                           std::vector<std::uint32_t>& nbrs) const;
     bool distributed() const { return coll_->distributed(); }
 
     const Scene& scene_;

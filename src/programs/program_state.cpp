@@ -15,6 +15,7 @@
 #include <cstring>
 #include <iterator>
 
+#include "io/checkpoint.hpp"
 #include "programs/catom_state.hpp"
 #include "programs/program_pass.hpp"
 #include "util/errors.hpp"
@@ -24,6 +25,12 @@ namespace parode {
 namespace {
 
 // Plain values appended to and read from a byte buffer.
+// Bytes ran past the end of what it reads: a window of a checkpoint's
+// section to refill, or a section or message that is cut short.
+struct CutShort : CheckpointError {
+    CutShort() : CheckpointError("the catom programs' state in the checkpoint is cut short") {}
+};
+
 class Bytes {
 public:
     explicit Bytes(std::vector<char>& out) : out_(&out) {}
@@ -63,7 +70,7 @@ public:
 
 private:
     void need(std::size_t n) const {
-        if (at_ + n > in_->size()) throw CheckpointError("the catom programs' state in the checkpoint is cut short");
+        if (at_ + n > in_->size()) throw CutShort();
     }
     std::vector<char>* out_ = nullptr;
     const std::vector<char>* in_ = nullptr;
@@ -126,8 +133,9 @@ std::size_t ProgramPass::get_catom(Catom& c, std::uint32_t g, const std::vector<
         m.from = b.get<std::uint32_t>();
         m.data = b.get<std::array<std::int64_t, 4>>();
     }
+    const std::vector<unsigned char> saved = b.get_bytes();  // outside the try: CutShort must pass
     try {
-        c.program->load(b.get_bytes());
+        c.program->load(saved);
     } catch (const std::exception& e) {
         throw ProgramError("program " + spec_->name + ", catom " + std::to_string(g) + ", restoring: " + e.what());
     }
@@ -304,8 +312,13 @@ std::vector<char> ProgramPass::save_state() const {
     return out;
 }
 
-void ProgramPass::load_state(World& world, const std::vector<char>& state) {
-    Bytes b(state, 0);
+// A checkpoint's section, read window by window: each process keeps the
+// records of the catoms it owns and reads past the others'.
+void ProgramPass::load_state(World& world, ExtraReader& state) {
+    std::vector<char> window;
+    std::size_t at = 0;
+    state.refill(window, at);
+    Bytes b(window, 0);
     const std::size_t count = numbering_.count();
     if (b.get<std::uint64_t>() != count) {
         throw CheckpointError("the catom programs' state in the checkpoint is for another number of catoms");
@@ -315,12 +328,12 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
     counts_.messages = b.get<std::uint64_t>();
     counts_.events = b.get<std::uint64_t>();
     if (coll_->rank() != 0) counts_.messages = counts_.events = 0;  // the totals counted once, on the first process
+    at = b.at();
     located_ = ~0ULL;
     locate(world);  // the catoms this process owns after the set-up
     now_.keys = owned_;
     now_.at.assign(1, 0);
     now_.ids.clear();
-    std::size_t at = b.at();
     std::vector<std::uint32_t> nbrs;
     ensure_records(owned_.size());
     std::unique_ptr<Catom> scratch;  // the records of catoms owned elsewhere are read past
@@ -330,20 +343,35 @@ void ProgramPass::load_state(World& world, const std::vector<char>& state) {
         next += mine;
         std::unique_ptr<Catom>& r = mine ? records_.at(g) : scratch;
         if (!r) r = fresh_record(g);
-        at = get_catom(*r, g, state, at, nbrs);
+        at = next_catom(*r, g, state, window, at, nbrs);
         if (mine) {
             now_.ids.insert(now_.ids.end(), nbrs.begin(), nbrs.end());
             now_.at.push_back(static_cast<std::uint32_t>(now_.ids.size()));
         }
         world.switch_poles(g, r->magnets ? r->poles_off : World::kAllPolesOff);  // every process keeps every switch
     }
-    if (at != state.size()) throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
+    if (at != window.size() || state.refill(window, at)) {
+        throw CheckpointError("the catom programs' state in the checkpoint is longer than its catoms'");
+    }
     unstarted_ = false;  // every owned catom has its record; those that move later travel with it
     sweep_ = false;
     last_owned_ = owned_;
     bind_owned();
     std::fill(dirty_.begin(), dirty_.end(), 1);
     refresh_world(world, true);
+}
+
+// The record of catom g from the window at `at`, refilled from `state` while
+// the record runs past its end (a record's length is known only once read).
+std::size_t ProgramPass::next_catom(Catom& c, std::uint32_t g, ExtraReader& state, std::vector<char>& window,
+                                    std::size_t at, std::vector<std::uint32_t>& nbrs) const {
+    for (;;) {
+        try {
+            return get_catom(c, g, window, at, nbrs);
+        } catch (const CutShort&) {
+            if (!state.refill(window, at)) throw;
+        }
+    }
 }
 
 std::vector<double> ProgramPass::values_of(int v) const {

@@ -147,12 +147,12 @@ void Pipeline::restore(const std::vector<std::uint32_t>& gids) {
 
 // The catom programs' state, from the checkpoint's extra section.
 void Pipeline::restore_program() {
-    const std::vector<char> state = read_extra(*checkpoint_);
-    if (state.empty()) {
+    ExtraReader state(*checkpoint_);  // its checksum checked
+    if (state.size() == 0) {
         throw CheckpointError(checkpoint_->path + ": holds no catom programs' state (written without a [program]?)");
     }
     program_->load_state(*world_, state);
-    if (checked_.is_object() && checked_.value("verified", false)) checked_["program_state"] = true;  // read_extra checked it
+    if (checked_.is_object() && checked_.value("verified", false)) checked_["program_state"] = true;  // ExtraReader checked it
 }
 
 std::string Pipeline::restart_caveat() const {
