@@ -9,7 +9,9 @@ same bits as one process.
   candidate neighbours than one process (arrivals are patched in);
 - sculpt on the magnetic prism (magnet switches reach the processes that hold
   the catoms as ghosts): the same hash and values on 1 and 2 processes;
-- a checkpoint written by 2 processes restarts on 3 and on 1 exactly;
+- a checkpoint written by 2 processes restarts on 3 and on 1 exactly, also
+  at 20,000 catoms, whose programs' section is made in pieces and read in
+  windows (and has the same bytes from 3 processes as from 1);
 - a program that fails ends the run on 3 processes with exit 9 and the
   message one process gives.
 
@@ -109,6 +111,33 @@ class ProgramsOnRanks(unittest.TestCase):
                 again = run(path, d, n, *common, "--steps", "80", "--restart", ckpt, tag="again")
                 same_program(self, full, again)
                 self.assertTrue(again["restart"]["checked"]["program_state"])
+
+    def test_large_checkpoint_in_pieces(self):
+        """20,000 catoms: the section is made in 3 pieces of 8,192 catoms and read back in
+        windows of 64 kB (a record cut by a window's end is read again); a checkpoint of 2
+        processes restarts on 3 and 1 exactly, and one of 3 has the same bytes as one of 1."""
+        with tempfile.TemporaryDirectory() as d:
+            path = scene(d, "tennis.toml", GRADIENT)
+            common = ("--set", "catoms.count=20000")
+            full = run(path, d, 1, *common, "--steps", "8", tag="full")
+            ckpt = os.path.join(d, "c.ckpt")
+            run(path, d, 2, *common, "--steps", "4", "--checkpoint", ckpt, tag="half")
+            self.assertGreater(os.path.getsize(ckpt), 2 * 20000 * 100)  # the programs' section: about 115 bytes a catom
+            for n in (3, 1):
+                again = run(path, d, n, *common, "--steps", "4", "--restart", ckpt, tag="again")
+                same_program(self, full, again)
+            files = []
+            for n in (1, 3):
+                files.append(os.path.join(d, f"c{n}.ckpt"))
+                run(path, d, n, *common, "--steps", "4", "--checkpoint", files[-1], tag="bytes")
+            sections = []
+            for f in files:
+                with open(f, "rb") as c:  # the head's JSON line, then the section at the file's end
+                    c.readline()
+                    extra = json.loads(c.readline())["extra"]
+                    c.seek(-extra["bytes"], os.SEEK_END)
+                    sections.append(c.read())
+            self.assertTrue(sections[0] == sections[1], "the programs' section depends on the number of processes")
 
     def test_failure_ends_every_process(self):
         with tempfile.TemporaryDirectory() as d:

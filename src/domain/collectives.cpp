@@ -18,9 +18,6 @@ void Collectives::sum(std::int64_t*, int) const {}
 void Collectives::sum_wrapping(std::uint64_t*, int) const {}
 void Collectives::max(double*, int) const {}
 
-namespace {
-
-// `n` bytes at `at`, whole (pwrite may write less); false on an error.
 bool write_at(int fd, const char* data, std::size_t n, std::uint64_t at) {
     while (n > 0) {
         const ssize_t w = ::pwrite(fd, data, n, static_cast<off_t>(at));
@@ -32,8 +29,6 @@ bool write_at(int fd, const char* data, std::size_t n, std::uint64_t at) {
     }
     return true;
 }
-
-}  // namespace
 
 // Runs of consecutive ids in one write each; then fsync, so that the bytes
 // are on the disk before the caller renames the file into place.

@@ -32,6 +32,9 @@ struct FilePieces {
     std::vector<char> tail;
 };
 
+// `n` bytes at `at` of file `fd`, whole (pwrite may write less); false on an error.
+bool write_at(int fd, const char* data, std::size_t n, std::uint64_t at);
+
 class Collectives {
 public:
     virtual ~Collectives() = default;

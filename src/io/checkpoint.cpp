@@ -188,9 +188,56 @@ CheckpointCost& CheckpointCost::operator+=(const CheckpointCost& o) {
     return *this;
 }
 
+namespace {
+
+bool section_writer(const Collectives& domain) { return domain.rank() == domain.ranks() - 1; }
+
+// The section's size and XXH3 for the head, from its pieces made on the
+// writer (and sent to the others as text).
+nlohmann::json section_sum(const Collectives& domain, const SectionSource& extra, std::uint64_t& bytes) {
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
+    XXH3_64bits_reset(state.get());
+    std::uint64_t n = 0;
+    std::vector<char> piece;
+    for (std::size_t k = 0; k < extra.pieces(); ++k) {
+        piece.clear();
+        extra.piece(k, piece);
+        XXH3_64bits_update(state.get(), piece.data(), piece.size());
+        n += piece.size();
+    }
+    const std::string mine = section_writer(domain) && n > 0 ? std::to_string(n) + " " + hex64(XXH3_64bits_digest(state.get()))
+                                                             : std::string();
+    std::istringstream said(domain.all_text(mine, ""));
+    std::string xxh3;
+    if (!(said >> bytes >> xxh3)) return nullptr;
+    return {{"bytes", bytes}, {"xxh3", xxh3}};
+}
+
+// The writer appends the section's pieces at `at` of the written file and
+// syncs it; its error, if any (the others return none).
+std::string append_section(const std::string& path, const Collectives& domain, const SectionSource& extra,
+                           std::uint64_t at) {
+    const bool writer = section_writer(domain);
+    const int fd = writer ? ::open(path.c_str(), O_WRONLY | O_CLOEXEC) : -1;
+    bool ok = !writer || fd >= 0;
+    int err = writer && fd < 0 ? errno : 0;
+    std::vector<char> piece;
+    for (std::size_t k = 0; k < extra.pieces(); ++k) {  // every process takes part in every piece
+        piece.clear();
+        extra.piece(k, piece);
+        if (writer && ok && !write_at(fd, piece.data(), piece.size(), at)) ok = false, err = errno;
+        at += piece.size();
+    }
+    if (writer && ok && ::fsync(fd) != 0) ok = false, err = errno;
+    if (fd >= 0 && ::close(fd) != 0 && ok) ok = false, err = errno;
+    return ok ? std::string() : path + ": writing the catom programs' state failed (" + std::strerror(err) + ")";
+}
+
+}  // namespace
+
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                                 const std::vector<WarmImpulse>* warm, nlohmann::json meta,
-                                const std::vector<char>* extra) {
+                                const SectionSource* extra) {
     const auto start = std::chrono::steady_clock::now();
     FilePieces f;
     f.record = kRecordBytes;
@@ -227,16 +274,8 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     meta["checksums"] = {{"algorithm", "XXH3_64bits"}, {"record_block", kRecordSumBlock}, {"records", hex}};
     std::uint64_t extra_bytes = 0;
     if (extra) {
-        // Whole on the last process, which writes it after every process's
-        // impulses; its size and XXH3 go into the head from there.
-        const bool writer = domain.rank() == domain.ranks() - 1;
-        const std::string mine = writer && !extra->empty() ? std::to_string(extra->size()) + " " +
-                                                                  hex64(XXH3_64bits(extra->data(), extra->size()))
-                                                            : std::string();
-        std::istringstream said(domain.all_text(mine, ""));
-        std::string xxh3;
-        if (said >> extra_bytes >> xxh3) meta["extra"] = {{"bytes", extra_bytes}, {"xxh3", xxh3}};
-        if (writer) f.tail.insert(f.tail.end(), extra->begin(), extra->end());
+        nlohmann::json sum = section_sum(domain, *extra, extra_bytes);
+        if (!sum.is_null()) meta["extra"] = std::move(sum);
     }
     std::uint64_t head_bytes = 0;
     const std::vector<char> head = header(meta, head_bytes);
@@ -245,10 +284,12 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
     f.tail_at = head_bytes + world.global_body_count() * kRecordBytes;
     const std::string tmp = path + ".tmp";
     domain.write_file(tmp, f);  // collective: this process's part on the disk when it returns
-    // Every process's part synced before the root renames; the root's verdict
-    // shared, so that every process throws or none does.
-    std::string failed;
-    domain.sum(std::int64_t{0});  // a barrier
+    std::string failed = extra ? append_section(tmp, domain, *extra, f.tail_at + static_cast<std::uint64_t>(impulses) * kImpulseBytes)
+                               : std::string();
+    // Every process's part synced before the root renames; the writer's and
+    // then the root's verdict shared, so that every process throws or none does.
+    failed = domain.all_text(failed, "");  // also a barrier
+    if (!failed.empty()) throw OutputError(failed);
     if (domain.root()) {
         try {
             commit(tmp, path);

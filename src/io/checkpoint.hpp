@@ -82,14 +82,25 @@ struct CheckpointCost {
     CheckpointCost& operator+=(const CheckpointCost& o);
 };
 
+// A section written after the impulses (the catom programs' state), made
+// piece by piece on the last process (the writer), so that no process holds
+// it whole: `piece(k, out)` appends the k-th of `pieces()` to `out` there and
+// nothing elsewhere; collective: every process calls it for every k in order.
+class SectionSource {
+public:
+    virtual ~SectionSource() = default;
+    virtual std::size_t pieces() const = 0;
+    virtual void piece(std::size_t k, std::vector<char>& out) const = 0;
+};
+
 // Collective: writes every process's owned bodies and impulses, with `meta`
 // (the root's) completed by counts. Throws std::runtime_error naming the file.
-// `extra`: a section written after the impulses (the catom programs' state),
-// with its own XXH3 in the head: whole on the last process, which writes it
-// (the others pass theirs empty; every process passes one or none).
+// `extra` (every process passes one or none): its pieces are made twice, for
+// the section's size and XXH3 in the head, then for the writer to append
+// them to the file.
 CheckpointCost write_checkpoint(const std::string& path, const Collectives& domain, const World& world,
                       const std::vector<WarmImpulse>* warm, nlohmann::json meta,
-                      const std::vector<char>* extra = nullptr);
+                      const SectionSource* extra = nullptr);
 // That section, read in windows of a few MB, so that no process of a restart
 // holds the scene's catom records at once: its XXH3 is checked first,
 // streamed (CheckpointError if it differs), then `refill` hands the bytes

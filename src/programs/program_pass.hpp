@@ -20,7 +20,7 @@
 // Errors (a handler's exception, a message to a non-neighbour, a sender past
 // its budget) end the run with a ProgramError naming the lowest such catom,
 // its event and the message, on every process.
-// Its whole state goes into checkpoints (save_state / load_state), in one
+// Its whole state goes into checkpoints (state_piece / load_state), in one
 // format for any number of processes.
 // Trade-off: a catom's record (its program object, mail, values, digest)
 // lives only on the process that owns it, made when it first owns it and
@@ -81,14 +81,17 @@ public:
     // Everything the next step depends on (each catom's values, magnets,
     // timer, pending messages, program bytes and last neighbours; the step
     // and counts), for checkpoints, in one format for any number of
-    // processes: on the last process (the checkpoint's writer) and on one;
-    // the other processes get nothing, and send it only their own catoms'
-    // records (collective when distributed). load_state takes it back, read
-    // window by window from the checkpoint (and
-    // sets the world's magnet switches and values). Throws CheckpointError if
-    // it does not fit this scene. Called once the world holds what this
-    // process owns (after the domain's set-up): it keeps only their records.
-    std::vector<char> save_state() const;
+    // processes, in pieces of kStatePiece catoms (io/checkpoint.hpp
+    // SectionSource): made on the last process (the checkpoint's writer) and
+    // on one; the other processes get nothing, and send it only their own
+    // catoms' records (collective when distributed). load_state takes it
+    // back, read window by window from the checkpoint (and sets the world's
+    // magnet switches and values). Throws CheckpointError if it does not fit
+    // this scene. Called once the world holds what this process owns (after
+    // the domain's set-up): it keeps only their records.
+    static constexpr std::size_t kStatePiece = 8192;
+    std::size_t state_pieces() const;
+    void state_piece(std::size_t k, std::vector<char>& out) const;
     void load_state(World& world, ExtraReader& state);
     const ProgramSpec& spec() const { return *spec_; }
     // The scene's catoms: their number, their gids in order, and value k of
@@ -154,6 +157,8 @@ private:
     void put_catom(std::uint32_t g, std::vector<char>& out) const;
     std::size_t get_catom(Catom& c, std::uint32_t g, const std::vector<char>& in, std::size_t at,
                           std::vector<std::uint32_t>& nbrs) const;
+    void assemble_piece(const std::vector<std::vector<char>>& all, std::size_t lo, std::size_t hi,
+                        std::vector<char>& out) const;
     std::size_t next_catom(Catom& c, std::uint32_t g, ExtraReader& state, std::vector<char>& window, std::size_t at,
                            std::vector<std::uint32_t>& nbrs) const;
     bool distributed() const { return coll_->distributed(); }

@@ -260,56 +260,65 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
 
 // Every catom's record in catom order, each from the process that owns it
 // (the writer's copy for a catom no process owns): the same bytes whatever
-// the number of processes, made on the last process alone (the others keep
-// only their own records, not the scene's).
-std::vector<char> ProgramPass::save_state() const {
-    std::vector<char> out;
-    Bytes b(out);
-    b.put(static_cast<std::uint64_t>(numbering_.count()));
-    b.put(static_cast<std::int64_t>(step_));
-    b.put(counts_.steps);
-    const ProgramCounts counted = totals();
-    b.put(counted.messages);
-    b.put(counted.events);
-    const std::size_t count = numbering_.count();
-    if (!distributed()) {
-        for (std::size_t k = 0; k < count; ++k) put_catom(numbering_.gid(k), out);
-        return out;
+// the number of processes, made on the last process alone, a piece of
+// kStatePiece catoms at a time (no process holds the scene's records).
+// Piece 0 is the section's head: the catom count, the step and the counts.
+std::size_t ProgramPass::state_pieces() const { return 1 + (numbering_.count() + kStatePiece - 1) / kStatePiece; }
+
+void ProgramPass::state_piece(std::size_t k, std::vector<char>& out) const {
+    const bool writer = coll_->rank() == coll_->ranks() - 1;
+    if (k == 0) {
+        const ProgramCounts counted = totals();  // collective when distributed
+        if (!writer) return;
+        Bytes b(out);
+        b.put(static_cast<std::uint64_t>(numbering_.count()));
+        b.put(static_cast<std::int64_t>(step_));
+        b.put(counts_.steps);
+        b.put(counted.messages);
+        b.put(counted.events);
+        return;
     }
-    std::vector<char> mine, one;  // (catom, length, record) of each catom run here
-    for (std::uint32_t g : last_owned_) {
+    const std::size_t lo = (k - 1) * kStatePiece, hi = std::min(numbering_.count(), k * kStatePiece);
+    if (!distributed()) {
+        for (std::size_t i = lo; i < hi; ++i) put_catom(numbering_.gid(i), out);
+        return;
+    }
+    std::vector<char> mine, one;  // (catom, length, record) of each catom of the piece run here
+    const auto first = std::lower_bound(last_owned_.begin(), last_owned_.end(), numbering_.gid(lo));
+    const auto last = std::upper_bound(first, last_owned_.end(), numbering_.gid(hi - 1));  // catom order is gid order
+    for (auto it = first; it != last; ++it) {
         one.clear();
-        put_catom(g, one);
-        Bytes(mine).put(g);
+        put_catom(*it, one);
+        Bytes(mine).put(*it);
         Bytes(mine).put(static_cast<std::uint64_t>(one.size()));
         mine.insert(mine.end(), one.begin(), one.end());
     }
-    const auto writer = static_cast<std::size_t>(coll_->ranks() - 1);
-    std::vector<std::vector<char>> send(writer + 1);
-    send[writer] = std::move(mine);
+    const auto to = static_cast<std::size_t>(coll_->ranks() - 1);
+    std::vector<std::vector<char>> send(to + 1);
+    send[to] = std::move(mine);
     const std::vector<std::vector<char>> all = coll_->sparse_to(send, 2);
-    if (static_cast<std::size_t>(coll_->rank()) != writer) return {};
-    std::vector<std::pair<const char*, std::size_t>> from(count, {nullptr, 0});  // by catom index
+    if (writer) assemble_piece(all, lo, hi, out);
+}
+
+// The writer's piece [lo, hi) in catom order from what every process sent.
+void ProgramPass::assemble_piece(const std::vector<std::vector<char>>& all, std::size_t lo, std::size_t hi,
+                                 std::vector<char>& out) const {
+    std::vector<std::pair<const char*, std::size_t>> from(hi - lo, {nullptr, 0});  // by catom index - lo
     for (const std::vector<char>& in : all) {
         for (Bytes r(in, 0); !r.done();) {
             const auto g = r.get<std::uint32_t>();
             const auto n = static_cast<std::size_t>(r.get<std::uint64_t>());
-            from[numbering_.index(g)] = {in.data() + r.at(), n};
-            Bytes skip(in, r.at() + n);
-            r = skip;
+            from[numbering_.index(g) - lo] = {in.data() + r.at(), n};
+            r = Bytes(in, r.at() + n);
         }
     }
-    std::vector<char> own;
-    for (std::size_t k = 0; k < count; ++k) {
-        if (from[k].first) {
-            out.insert(out.end(), from[k].first, from[k].first + from[k].second);
+    for (std::size_t i = 0; i < from.size(); ++i) {
+        if (from[i].first) {
+            out.insert(out.end(), from[i].first, from[i].first + from[i].second);
         } else {
-            own.clear();
-            put_catom(numbering_.gid(k), own);
-            out.insert(out.end(), own.begin(), own.end());
+            put_catom(numbering_.gid(lo + i), out);
         }
     }
-    return out;
 }
 
 // A checkpoint's section, read window by window: each process keeps the

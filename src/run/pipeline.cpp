@@ -177,6 +177,21 @@ void Pipeline::restore_run_state(const nlohmann::json& run) {
     if (checker_ && run.contains("checks")) checker_->restore(run.at("checks"));
 }
 
+namespace {
+
+// The catom programs' state as a checkpoint's section, piece by piece.
+class ProgramSection final : public SectionSource {
+public:
+    explicit ProgramSection(const ProgramPass* pass) : pass_(pass) {}
+    std::size_t pieces() const override { return pass_->state_pieces(); }
+    void piece(std::size_t k, std::vector<char>& out) const override { pass_->state_piece(k, out); }
+
+private:
+    const ProgramPass* pass_;
+};
+
+}  // namespace
+
 void Pipeline::write_checkpoint(const std::string& path) {
     const std::int64_t contacts = collectives().sum(static_cast<std::int64_t>(totals_.contacts));
     nlohmann::json run = {{"totals", {{"contacts", contacts}, {"max_penetration", totals_.max_penetration},
@@ -188,8 +203,9 @@ void Pipeline::write_checkpoint(const std::string& path) {
                                  {"scene", scene_.name}, {"scene_file", scene_.source},
                                  {"scene_digest", hex64(scene_.digest)}, {"seed", scene_.seed},
                                  {"drand_seed", world_->drand_seed()}, {"solver", solver_->name()}, {"run", run}};
-    const std::vector<char> programs = program_ ? program_->save_state() : std::vector<char>();
-    checkpoint_cost_ += parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta, &programs);
+    const ProgramSection programs(program_);
+    checkpoint_cost_ += parode::write_checkpoint(path, collectives(), *world_, solver_->warm_impulses(), meta,
+                                                 program_ ? &programs : nullptr);
 }
 
 const Substages* Pipeline::substages(Stage s) const {
