@@ -100,32 +100,32 @@ class ProgramsOnRanks(unittest.TestCase):
             self.assertIn(0.0, one["program"]["values"]["inside"])  # some catoms let go
             same_program(self, one, two)
 
+    def restarts_exactly(self, d, catoms, steps):
+        """A checkpoint of 2 processes at `steps` restarts on 3 and on 1 to the hash and
+        program values of 2 x `steps` straight; the scene's path."""
+        path = scene(d, "tennis.toml", GRADIENT)
+        common = ("--set", f"catoms.count={catoms}")
+        full = run(path, d, 1, *common, "--steps", str(2 * steps), tag="full")
+        ckpt = os.path.join(d, "c.ckpt")
+        run(path, d, 2, *common, "--steps", str(steps), "--checkpoint", ckpt, tag="half")
+        self.assertGreater(os.path.getsize(ckpt), catoms * 100)  # the programs' section: about 115 bytes a catom
+        for n in (3, 1):
+            again = run(path, d, n, *common, "--steps", str(steps), "--restart", ckpt, tag="again")
+            same_program(self, full, again)
+            self.assertTrue(again["restart"]["checked"]["program_state"])
+        return path
+
     def test_checkpoint_of_two_restarts_on_three_and_one(self):
         with tempfile.TemporaryDirectory() as d:
-            path = scene(d, "tennis.toml", GRADIENT)
-            common = ("--set", "catoms.count=2000")
-            full = run(path, d, 1, *common, "--steps", "160", tag="full")
-            ckpt = os.path.join(d, "c.ckpt")
-            run(path, d, 2, *common, "--steps", "80", "--checkpoint", ckpt, tag="half")
-            for n in (3, 1):
-                again = run(path, d, n, *common, "--steps", "80", "--restart", ckpt, tag="again")
-                same_program(self, full, again)
-                self.assertTrue(again["restart"]["checked"]["program_state"])
+            self.restarts_exactly(d, 2000, 80)
 
     def test_large_checkpoint_in_pieces(self):
         """20,000 catoms: the section is made in 3 pieces of 8,192 catoms and read back in
         windows of 64 kB (a record cut by a window's end is read again); a checkpoint of 2
-        processes restarts on 3 and 1 exactly, and one of 3 has the same bytes as one of 1."""
+        processes restarts on 3 and 1 exactly, and the section of 3 processes has the bytes of 1's."""
         with tempfile.TemporaryDirectory() as d:
-            path = scene(d, "tennis.toml", GRADIENT)
+            path = self.restarts_exactly(d, 20000, 4)
             common = ("--set", "catoms.count=20000")
-            full = run(path, d, 1, *common, "--steps", "8", tag="full")
-            ckpt = os.path.join(d, "c.ckpt")
-            run(path, d, 2, *common, "--steps", "4", "--checkpoint", ckpt, tag="half")
-            self.assertGreater(os.path.getsize(ckpt), 2 * 20000 * 100)  # the programs' section: about 115 bytes a catom
-            for n in (3, 1):
-                again = run(path, d, n, *common, "--steps", "4", "--restart", ckpt, tag="again")
-                same_program(self, full, again)
             files = []
             for n in (1, 3):
                 files.append(os.path.join(d, f"c{n}.ckpt"))

@@ -47,6 +47,7 @@
 
 #include "domain/collectives.hpp"
 #include "solve/contact_solver.hpp"
+#include "util/byte_source.hpp"
 #include "world/world.hpp"
 
 namespace parode {
@@ -105,13 +106,12 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
 // holds the scene's catom records at once: its XXH3 is checked first,
 // streamed (CheckpointError if it differs), then `refill` hands the bytes
 // out in order.
-class ExtraReader {
+class ExtraReader final : public ByteSource {
 public:
     explicit ExtraReader(const Checkpoint& c);
     std::uint64_t size() const { return size_; }  // 0: the checkpoint has none
-    // Drops window[0, at) and appends the next unread bytes (at most a
-    // window's worth); at becomes 0. False when none were left to append.
-    bool refill(std::vector<char>& window, std::size_t& at);
+    // At most a window's worth (64 kB) at a time.
+    bool refill(std::vector<char>& window, std::size_t& at) override;
 
 private:
     std::string path_;

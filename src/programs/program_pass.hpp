@@ -45,13 +45,13 @@
 #include "exec/execution.hpp"
 #include "forces/force_pass.hpp"
 #include "programs/program.hpp"
+#include "util/byte_source.hpp"
 #include "util/gid_table.hpp"
 #include "util/id_map.hpp"
 #include "util/substages.hpp"
 
 namespace parode {
 
-class ExtraReader;  // io/checkpoint.hpp
 
 struct ProgramCounts {
     std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: this process's (totals(): all)
@@ -92,7 +92,7 @@ public:
     static constexpr std::size_t kStatePiece = 8192;
     std::size_t state_pieces() const;
     void state_piece(std::size_t k, std::vector<char>& out) const;
-    void load_state(World& world, ExtraReader& state);
+    void load_state(World& world, ByteSource& state);
     const ProgramSpec& spec() const { return *spec_; }
     // The scene's catoms: their number, their gids in order, and value k of
     // every catom (after the last step; collective when distributed).
@@ -159,7 +159,7 @@ private:
                           std::vector<std::uint32_t>& nbrs) const;
     void assemble_piece(const std::vector<std::vector<char>>& all, std::size_t lo, std::size_t hi,
                         std::vector<char>& out) const;
-    std::size_t next_catom(Catom& c, std::uint32_t g, ExtraReader& state, std::vector<char>& window, std::size_t at,
+    std::size_t next_catom(Catom& c, std::uint32_t g, ByteSource& state, std::vector<char>& window, std::size_t at,
                            std::vector<std::uint32_t>& nbrs) const;
     bool distributed() const { return coll_->distributed(); }
 

@@ -15,7 +15,6 @@
 #include <cstring>
 #include <iterator>
 
-#include "io/checkpoint.hpp"
 #include "programs/catom_state.hpp"
 #include "programs/program_pass.hpp"
 #include "util/errors.hpp"
@@ -323,7 +322,7 @@ void ProgramPass::assemble_piece(const std::vector<std::vector<char>>& all, std:
 
 // A checkpoint's section, read window by window: each process keeps the
 // records of the catoms it owns and reads past the others'.
-void ProgramPass::load_state(World& world, ExtraReader& state) {
+void ProgramPass::load_state(World& world, ByteSource& state) {
     std::vector<char> window;
     std::size_t at = 0;
     state.refill(window, at);
@@ -372,7 +371,7 @@ void ProgramPass::load_state(World& world, ExtraReader& state) {
 
 // The record of catom g from the window at `at`, refilled from `state` while
 // the record runs past its end (a record's length is known only once read).
-std::size_t ProgramPass::next_catom(Catom& c, std::uint32_t g, ExtraReader& state, std::vector<char>& window,
+std::size_t ProgramPass::next_catom(Catom& c, std::uint32_t g, ByteSource& state, std::vector<char>& window,
                                     std::size_t at, std::vector<std::uint32_t>& nbrs) const {
     for (;;) {
         try {
