@@ -52,7 +52,6 @@
 
 namespace parode {
 
-
 struct ProgramCounts {
     std::uint64_t steps = 0, messages = 0, events = 0;  // messages and events: this process's (totals(): all)
     double seconds = 0;                                  // this process's
