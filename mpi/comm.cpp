@@ -172,9 +172,14 @@ std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
 // NBX (Hoefler, Siebert, Lumsdaine 2010): synchronous sends complete only
 // when matched, so once all of this process's sends are done it enters a
 // non-blocking barrier; when the barrier completes, every message of the
-// round has been received somewhere.
-std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int tag) const {
+// round has been received somewhere. The barrier completes at processes one
+// by one, so a process may send the next call's messages while another still
+// probes for this call's; calls with one tag alternate between two MPI tags
+// (1000 + 2 tag and the next; never two calls ahead: ending the next call
+// needs that process in its barrier), so no call takes the next one's.
+std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int call_tag) const {
     Clock c(stats_);
+    const int tag = 1000 + 2 * call_tag + static_cast<int>(sparse_calls_[call_tag]++ & 1u);
     const double began = now_seconds();
     std::vector<MPI_Request> sends;
     for (const auto& [dest, bytes] : out) {

@@ -98,6 +98,7 @@ public:
 
     // Sends out[dest] to each dest; returns what every other process sent
     // here, sorted by source rank. Partners need not be known in advance.
+    // Every process makes the calls with one `tag` in the same order.
     std::vector<std::pair<int, Bytes>> sparse_exchange(const std::map<int, Bytes>& out, int tag) const;
     // Sends out[i] to partners[i] and receives one message (any size) from
     // each of `from`; in[j] is what from[j] sent (its buffer reused).
@@ -147,6 +148,7 @@ private:
     int rank_ = 0, size_ = 1;
     double latency_ = 0;  // seconds, from PARODE_INJECT_LATENCY_US
     mutable CommStats stats_;
+    mutable std::map<int, unsigned> sparse_calls_;  // sparse_exchange calls by tag: their MPI tag's parity
 };
 
 }  // namespace parode::mpi

@@ -118,23 +118,15 @@ std::vector<std::uint32_t> MpiDomain::initial_bodies(const Scene& /*scene*/, con
 std::string MpiDomain::why() const { return distributed_why(ranks(), cells_.edge()); }
 
 std::vector<std::vector<char>> MpiCollectives::sparse_to(const std::vector<std::vector<char>>& out, int channel) const {
-    // Tags 40-47, apart from the domain's: two a channel, alternating by
-    // call. An exchange ends at a process when every process has entered
-    // its barrier, so a process may start the next call while another still
-    // probes for this one's messages (never two calls ahead: ending the next
-    // one needs that process in its barrier); under the same tag it would
-    // take them for this call's (a checkpoint's pieces of catom records are
-    // sent to one process call after call).
-    constexpr int kTagSparse = 40;
+    constexpr int kTagSparse = 40;  // 40-43: apart from the domain's tags
     if (channel < 0 || channel > 3) throw std::logic_error("sparse_to: channel " + std::to_string(channel) + " (0-3)");
-    const int tag = kTagSparse + 2 * channel + static_cast<int>(rounds_[static_cast<std::size_t>(channel)]++ & 1u);
     std::map<int, Bytes> send;
     for (int r = 0; r < ranks(); ++r) {
         if (r != rank() && !out[static_cast<std::size_t>(r)].empty()) send.emplace(r, out[static_cast<std::size_t>(r)]);
     }
     std::vector<std::vector<char>> in(static_cast<std::size_t>(ranks()));
     in[static_cast<std::size_t>(rank())] = out[static_cast<std::size_t>(rank())];
-    for (auto& [from, bytes] : comm_.sparse_exchange(send, tag)) in[static_cast<std::size_t>(from)] = std::move(bytes);
+    for (auto& [from, bytes] : comm_.sparse_exchange(send, kTagSparse + channel)) in[static_cast<std::size_t>(from)] = std::move(bytes);
     return in;
 }
 

@@ -58,7 +58,6 @@ public:
 
 private:
     const Comm& comm_;
-    mutable std::array<unsigned, 4> rounds_{};  // sparse_to calls per channel: their tag's parity
 };
 
 // The "mpi" decomposition of the stage registry (mpi/stages.hpp).

@@ -41,6 +41,7 @@ public:
     virtual int rank() const { return 0; }
     virtual int ranks() const { return 1; }
     bool root() const { return rank() == 0; }
+    bool last() const { return rank() == ranks() - 1; }  // a checkpoint's programs' section is made there
     bool distributed() const { return ranks() > 1; }
 
     // In place; every process gets the result.

@@ -190,23 +190,38 @@ CheckpointCost& CheckpointCost::operator+=(const CheckpointCost& o) {
 
 namespace {
 
-bool section_writer(const Collectives& domain) { return domain.rank() == domain.ranks() - 1; }
+// XXH3 of bytes handed in piece by piece.
+class Xxh3Stream {
+public:
+    Xxh3Stream() : state_(XXH3_createState(), XXH3_freeState) { XXH3_64bits_reset(state_.get()); }
+    void add(const char* data, std::size_t n) { XXH3_64bits_update(state_.get(), data, n); }
+    std::string hex() const { return hex64(XXH3_64bits_digest(state_.get())); }
 
-// The section's size and XXH3 for the head, from its pieces made on the
-// writer (and sent to the others as text).
-nlohmann::json section_sum(const Collectives& domain, const SectionSource& extra, std::uint64_t& bytes) {
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    XXH3_64bits_reset(state.get());
-    std::uint64_t n = 0;
+private:
+    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
+};
+
+// `use(piece)` for each piece of `extra` in order (collective).
+template <class Use>
+void each_piece(const SectionSource& extra, Use use) {
     std::vector<char> piece;
     for (std::size_t k = 0; k < extra.pieces(); ++k) {
         piece.clear();
         extra.piece(k, piece);
-        XXH3_64bits_update(state.get(), piece.data(), piece.size());
-        n += piece.size();
+        use(piece);
     }
-    const std::string mine = section_writer(domain) && n > 0 ? std::to_string(n) + " " + hex64(XXH3_64bits_digest(state.get()))
-                                                             : std::string();
+}
+
+// The section's size and XXH3 for the head, from its pieces made on the
+// writer (and sent to the others as text).
+nlohmann::json section_sum(const Collectives& domain, const SectionSource& extra, std::uint64_t& bytes) {
+    Xxh3Stream sum;
+    std::uint64_t n = 0;
+    each_piece(extra, [&](const std::vector<char>& piece) {
+        sum.add(piece.data(), piece.size());
+        n += piece.size();
+    });
+    const std::string mine = domain.last() && n > 0 ? std::to_string(n) + " " + sum.hex() : std::string();
     std::istringstream said(domain.all_text(mine, ""));
     std::string xxh3;
     if (!(said >> bytes >> xxh3)) return nullptr;
@@ -217,17 +232,14 @@ nlohmann::json section_sum(const Collectives& domain, const SectionSource& extra
 // syncs it; its error, if any (the others return none).
 std::string append_section(const std::string& path, const Collectives& domain, const SectionSource& extra,
                            std::uint64_t at) {
-    const bool writer = section_writer(domain);
+    const bool writer = domain.last();
     const int fd = writer ? ::open(path.c_str(), O_WRONLY | O_CLOEXEC) : -1;
     bool ok = !writer || fd >= 0;
     int err = writer && fd < 0 ? errno : 0;
-    std::vector<char> piece;
-    for (std::size_t k = 0; k < extra.pieces(); ++k) {  // every process takes part in every piece
-        piece.clear();
-        extra.piece(k, piece);
+    each_piece(extra, [&](const std::vector<char>& piece) {  // every process takes part in every piece
         if (writer && ok && !write_at(fd, piece.data(), piece.size(), at)) ok = false, err = errno;
         at += piece.size();
-    }
+    });
     if (writer && ok && ::fsync(fd) != 0) ok = false, err = errno;
     if (fd >= 0 && ::close(fd) != 0 && ok) ok = false, err = errno;
     return ok ? std::string() : path + ": writing the catom programs' state failed (" + std::strerror(err) + ")";
@@ -514,17 +526,16 @@ ExtraReader::ExtraReader(const Checkpoint& c) : path_(c.path), in_(c.path, std::
     if (!c.meta.contains("extra")) return;
     size_ = c.meta.at("extra").at("bytes").get<std::uint64_t>();
     in_.seekg(static_cast<std::streamoff>(extra_at(c)));
-    std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state(XXH3_createState(), XXH3_freeState);
-    XXH3_64bits_reset(state.get());
+    Xxh3Stream sum;
     std::vector<char> window(kExtraRead);
     for (std::uint64_t left = size_; left > 0 && in_;) {
         const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left, window.size()));
         in_.read(window.data(), static_cast<std::streamsize>(n));
-        XXH3_64bits_update(state.get(), window.data(), n);
+        sum.add(window.data(), n);
         left -= n;
     }
     const std::string want = c.meta.at("extra").value("xxh3", std::string("?"));
-    const std::string got = in_ ? hex64(XXH3_64bits_digest(state.get())) : std::string("(truncated)");
+    const std::string got = in_ ? sum.hex() : std::string("(truncated)");
     if (got != want) damaged(c.path, "the catom programs' state (" + std::to_string(size_) + " bytes): checksum " + got +
                                          ", written " + want);
     in_.seekg(static_cast<std::streamoff>(extra_at(c)));

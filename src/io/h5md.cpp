@@ -310,10 +310,7 @@ void H5md::count_frame(hsize_t f, long step, double time) {
     const hsize_t one = domain_.root() ? 1 : 0;
     if (!held_) file_.extend(time_.get(), f + 1);
     file_.write(time_.get(), Type::F64, {f}, {one}, &time);
-    if (held_) {  // every process's blocks are written before the count grows
-        double none = 0;
-        domain_.max(&none, 1);
-    }
+    if (held_) domain_.sum(std::int64_t{0});  // a barrier: every process's blocks are written before the count grows
     file_.extend(step_.get(), f + 1);
     file_.write(step_.get(), Type::I64, {f}, {one}, &s);
     file_.flush();

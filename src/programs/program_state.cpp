@@ -265,7 +265,7 @@ void ProgramPass::exchange_mail(World& world, std::vector<std::pair<std::uint32_
 std::size_t ProgramPass::state_pieces() const { return 1 + (numbering_.count() + kStatePiece - 1) / kStatePiece; }
 
 void ProgramPass::state_piece(std::size_t k, std::vector<char>& out) const {
-    const bool writer = coll_->rank() == coll_->ranks() - 1;
+    const bool writer = coll_->last();
     if (k == 0) {
         const ProgramCounts counted = totals();  // collective when distributed
         if (!writer) return;
