@@ -16,8 +16,9 @@
 
 namespace parode::mpi {
 
-// A new token for mark_: the marks of earlier passes lapse.
-std::uint32_t MpiDomain::next_mark() {
+// A new token for mark_: the marks of earlier passes lapse (a step has 1 +
+// neighbours passes, so the bytes are cleared every few steps).
+std::uint8_t MpiDomain::next_mark() {
     mark_.resize(world_->body_count(), 0);
     if (++mark_token_ == 0) {
         std::fill(mark_.begin(), mark_.end(), 0);
@@ -34,7 +35,7 @@ std::uint32_t MpiDomain::next_mark() {
 // way a step.
 void MpiDomain::exchange_interest(const std::vector<std::vector<std::uint32_t>>& touched) {
     std::vector<Bytes> out(nbrs_.size());
-    const std::uint32_t once = next_mark();
+    const std::uint8_t once = next_mark();
     for (const auto& list : touched) {
         for (std::uint32_t b : list) {
             if (mark_[b] == once) continue;
@@ -57,7 +58,7 @@ void MpiDomain::plan(const std::vector<std::vector<std::uint32_t>>& touched) {
         corr_in_[c].assign(nbrs_.size(), {});
     }
     for (std::size_t j = 0; j < nbrs_.size(); ++j) {
-        const std::uint32_t wants = next_mark();
+        const std::uint8_t wants = next_mark();
         const Bytes& in = interest_in_[j];
         for (std::size_t at = 0; at + sizeof(std::uint32_t) <= in.size();) {
             const std::uint32_t local = world_->local_of(take<std::uint32_t>(in, at));

@@ -101,7 +101,7 @@ private:
     // Message tags, one per kind of exchange.
     enum Tag { kTagMigrate = 11, kTagGhost = 12, kTagForce = 13, kTagCorrection = 14, kTagCheck = 15, kTagInterest = 16 };
     void exchange_interest(const std::vector<std::vector<std::uint32_t>>& touched);
-    std::uint32_t next_mark();
+    std::uint8_t next_mark();
     void repartition(const World& world, const std::vector<WarmImpulse>* warm);
     void partition(std::vector<CellLoad> mine);
     void cut_together(const std::vector<CellLoad>& cells);
@@ -153,8 +153,8 @@ private:
     std::vector<Bytes> corr_out_, corr_recv_;  // message buffers, kept for their capacity
     std::vector<std::size_t> expect_;           // the posted receives' sizes
     std::vector<Bytes> interest_in_;            // per neighbour: the gids it touches this step
-    std::vector<std::uint32_t> mark_;           // per local body: the token of the pass that marked it
-    std::uint32_t mark_token_ = 0;
+    std::vector<std::uint8_t> mark_;            // per local body: the token of the pass that marked it
+    std::uint8_t mark_token_ = 0;               // a byte: cleared every 255 passes, 1 byte a body
     PendingExchange pending_;                   // the colour posted and not yet completed
     bool posted_named_ = false;                 // its messages carry the ids
     std::array<std::uint64_t, 8> colour_bytes_{};

@@ -1,13 +1,15 @@
 // IdMap against std::map on the same random sequence of sets, updates and
-// erasures: the dense table and the open-addressing hash give every lookup
-// the reference gives, through growth and through erasures that shift runs
-// back (ids chosen to collide in few slots, so runs are long and wrap around
-// the table's end); and which form a share of the ids gets. GidTable (the
+// erasures: the dense table and the paged one give every lookup the
+// reference gives, through growth and through erasures that empty pages and
+// shift the directory's runs back (ids of a wide range in a few slots, so
+// runs are long and wrap around the table's end); pages are given back and
+// reused; and which form a share of the ids gets. GidTable (the
 // objects held by id, over an IdMap) against std::map the same way.
 // Trade-off: a fixed seed and sizes of a few thousand ids: every branch of
 // the shifting is taken many times, in milliseconds.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -49,7 +51,7 @@ void churn(IdMap& m, std::uint32_t range, int ops, const std::vector<std::uint32
     }
 }
 
-TEST(IdMap, DenseForMostOfTheRangeHashForAShare) {
+TEST(IdMap, DenseForMostOfTheRangePagedForAShare) {
     IdMap whole, half, eighth;
     whole.reset(100000, 100000);
     half.reset(100000, 50000);
@@ -66,14 +68,14 @@ TEST(IdMap, DenseTableAgreesWithAMap) {
     churn(m, 3000, 20000);
 }
 
-TEST(IdMap, HashAgreesWithAMapThroughGrowthAndErasures) {
+TEST(IdMap, PagedAgreesWithAMapThroughGrowthAndErasures) {
     IdMap m;
     m.reset(1u << 30, 16);  // starts small: grows many times
     ASSERT_FALSE(m.dense());
     churn(m, 5000, 40000);
 }
 
-TEST(IdMap, HashRunsThatWrapAroundShiftBack) {
+TEST(IdMap, DirectoryRunsThatWrapAroundShiftBack) {
     // 16 slots, 7 ids of a wide range: over 400 such sets, runs that wrap
     // past the last slot form and are shifted back many times.
     std::mt19937 rng(7);
@@ -85,6 +87,38 @@ TEST(IdMap, HashRunsThatWrapAroundShiftBack) {
         ASSERT_FALSE(m.dense());
         churn(m, 7, 200, &ids, set);
     }
+}
+
+// A rank's share: rows of 100 ids every 1,000 (catoms of its blocks), set,
+// half erased, set again: the pages in use are the pages the ids touch, and
+// a page emptied is reused rather than added.
+TEST(IdMap, PagedTableHoldsTheRowsPagesAndReusesThem) {
+    IdMap m;
+    m.reset(1000000, 10000);
+    ASSERT_FALSE(m.dense());
+    std::vector<std::uint32_t> ids;
+    for (std::uint32_t row = 0; row < 100; ++row) {
+        for (std::uint32_t k = 0; k < 100; ++k) ids.push_back(row * 1000 + 7 + k);
+    }
+    const auto pages_of = [&ids](std::size_t from, std::size_t to) {
+        std::vector<std::uint32_t> p;
+        for (std::size_t i = from; i < to; ++i) p.push_back(ids[i] / IdMap::kPage);
+        std::sort(p.begin(), p.end());
+        return static_cast<std::size_t>(std::unique(p.begin(), p.end()) - p.begin());
+    };
+    for (std::size_t i = 0; i < ids.size(); ++i) m.set(ids[i], static_cast<std::uint32_t>(i));
+    EXPECT_EQ(m.pages(), pages_of(0, ids.size()));
+    for (std::size_t i = 0; i < ids.size() / 2; ++i) m.erase(ids[i]);  // the first 50 rows
+    EXPECT_EQ(m.pages(), pages_of(ids.size() / 2, ids.size()));
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        ASSERT_EQ(m.find(ids[i]), i < ids.size() / 2 ? IdMap::kNone : i) << ids[i];
+    }
+    for (std::size_t i = 0; i < ids.size() / 2; ++i) m.set(ids[i] + 500, static_cast<std::uint32_t>(i));
+    EXPECT_EQ(m.find(ids[0] + 500), 0u);
+    EXPECT_EQ(m.find(ids[0]), IdMap::kNone);
+    m.reset(1000000, 10000);
+    EXPECT_EQ(m.pages(), 0u);
+    churn(m, static_cast<std::uint32_t>(ids.size()), 20000, &ids);
 }
 
 // GidTable against std::map through adds, erasures (slots reused), a keep_only

@@ -8,7 +8,7 @@
 #include "run/stage_plan.hpp"
 #include "run/stages.hpp"
 #include "util/hash.hpp"
-#include "util/heap_trim.hpp"
+#include "util/heap_policy.hpp"
 
 namespace parode {
 
@@ -20,6 +20,7 @@ const char* stage_name(Stage s) {
 
 Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
     : scene_(scene), exec_(Stages::instance().execution(options.execution)) {
+    fix_mmap_threshold();  // before the world's buffers (util/heap_policy.hpp)
     const Stages& stages = Stages::instance();
     if (!options.decomposition) own_domain_ = stages.domain.make(options.domain, scene, *exec_);
     domain_ = options.decomposition ? options.decomposition : own_domain_.get();
