@@ -7,18 +7,21 @@
 //   with the number of ranks (more, differently sized message and ghost
 //   buffers). Measured peak, 10^6 catoms a rank, 2 steps, 1/2/4/8 ranks:
 //   1,760/1,846/1,879/1,863 MiB with the rising threshold, 1,734/1,794/
-//   1,810/1,815 with it fixed. MALLOC_MMAP_THRESHOLD_ in the environment
-//   takes precedence (glibc reads it; this leaves it alone).
+//   1,810/1,815 with it fixed. A threshold the user gives glibc
+//   (MALLOC_MMAP_THRESHOLD_, or mmap_threshold in GLIBC_TUNABLES) is left
+//   alone.
 // - release_free_heap(): hands the freed pages of the set-up's temporaries
 //   (the root's gathered cells and partition, the migration's messages) back
 //   once before the first step: the root carried ~2.7 MB more at its peak
 //   than a rank of its size (8 ranks of 50,000 catoms).
-// Trade-off: a buffer of 1 MiB or more freed and allocated again each step
-// is mapped and faulted in again each time (the step's large buffers are
-// kept and reused, so few are); one walk of the heap at start-up (0.5 ms on
-// each of 2 ranks of 10^6 catoms).
+// Trade-off: the few buffers of 1 MiB or more a step frees and allocates
+// again (the ghost exchange's) are mapped and faulted in each time: 2 ranks
+// of 10^6 catoms take 4,090 page faults a step against 1,670, 1-2 ms of 600
+// (kept as members instead, they were resident at the solve's peak); one
+// walk of the heap at start-up (0.5 ms on each of 2 ranks of 10^6 catoms).
 #pragma once
 #include <cstdlib>
+#include <cstring>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -30,7 +33,9 @@ constexpr int kMmapThreshold = 1 << 20;
 
 inline void fix_mmap_threshold() {
 #if defined(__GLIBC__)
-    if (!std::getenv("MALLOC_MMAP_THRESHOLD_")) mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    if (std::getenv("MALLOC_MMAP_THRESHOLD_") || (tunables && std::strstr(tunables, "mmap_threshold"))) return;
+    mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
 #endif
 }
 
