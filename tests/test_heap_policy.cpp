@@ -35,10 +35,7 @@ std::size_t mapped_growth(std::size_t bytes) {
 
 TEST(HeapPolicy, LargeBlocksStayMappedAfterALargerOneIsFreed) {
 #if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
-    const char* tunables = std::getenv("GLIBC_TUNABLES");
-    if (std::getenv("MALLOC_MMAP_THRESHOLD_") || (tunables && std::strstr(tunables, "mmap_threshold"))) {
-        GTEST_SKIP() << "the user's mmap threshold is glibc's, not ours";
-    }
+    if (user_mmap_threshold()) GTEST_SKIP() << "the user's mmap threshold is glibc's, not ours";
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=200"});
     Pipeline p(sc, RunOptions{});
     p.step();

@@ -31,11 +31,15 @@ namespace parode {
 
 constexpr int kMmapThreshold = 1 << 20;
 
+// Whether the user gave glibc an mmap threshold of their own.
+inline bool user_mmap_threshold() {
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    return std::getenv("MALLOC_MMAP_THRESHOLD_") || (tunables && std::strstr(tunables, "mmap_threshold"));
+}
+
 inline void fix_mmap_threshold() {
 #if defined(__GLIBC__)
-    const char* tunables = std::getenv("GLIBC_TUNABLES");
-    if (std::getenv("MALLOC_MMAP_THRESHOLD_") || (tunables && std::strstr(tunables, "mmap_threshold"))) return;
-    mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+    if (!user_mmap_threshold()) mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
 #endif
 }
 

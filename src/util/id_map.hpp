@@ -117,7 +117,7 @@ public:
         }
         std::uint32_t page = dir_.find(id >> kPageBits);
         if (page == kNone) page = new_page(id >> kPageBits);
-        std::uint32_t& cell = table_[std::size_t{page} * kPage + (id & kInPage)];
+        std::uint32_t& cell = table_[in_page(page, id)];
         if (cell == kNone) ++used_[page];
         cell = local;
     }
@@ -128,7 +128,7 @@ public:
         }
         const std::uint32_t page = dir_.find(id >> kPageBits);
         if (page == kNone) return;
-        std::uint32_t& cell = table_[std::size_t{page} * kPage + (id & kInPage)];
+        std::uint32_t& cell = table_[in_page(page, id)];
         if (cell == kNone) return;
         cell = kNone;
         if (--used_[page] > 0) return;
@@ -138,13 +138,15 @@ public:
     std::uint32_t find(std::uint32_t id) const {
         if (dense_) return id < table_.size() ? table_[id] : kNone;
         const std::uint32_t page = dir_.find(id >> kPageBits);
-        return page == kNone ? kNone : table_[std::size_t{page} * kPage + (id & kInPage)];
+        return page == kNone ? kNone : table_[in_page(page, id)];
     }
     bool dense() const { return dense_; }
     // Pages in use (paged form; 0 when dense).
     std::size_t pages() const { return used_.size() - free_.size(); }
 
 private:
+    // Where id's index lies in the table, its page being `page`.
+    static std::size_t in_page(std::uint32_t page, std::uint32_t id) { return std::size_t{page} * kPage + (id & kInPage); }
     std::uint32_t new_page(std::uint32_t number) {
         std::uint32_t page;
         if (!free_.empty()) {
