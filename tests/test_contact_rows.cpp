@@ -206,13 +206,29 @@ TEST(ContactRows, SphereRowEffectiveMassesAreTheBlocks) {
 
 TEST(ContactRows, FourLanesGiveTheBitsOfTwo) {
     const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
-    const bool had = four_lanes();
+    const bool had = four_lanes(), had_eight = eight_lanes();
+    set_eight_lanes(false);  // four streams of packs of four (or two pairs)
     set_four_lanes(false);
     const std::string two = hex64(test::run(sc, 100, "grid", 1, "pgs")->last().state_hash);
     set_four_lanes(true);
     const std::string four = hex64(test::run(sc, 100, "grid", 1, "pgs")->last().state_hash);
     set_four_lanes(had);
+    set_eight_lanes(had_eight);
     EXPECT_EQ(two, four) << (four_lanes() ? "AVX lanes" : "no AVX here: both ran on two lanes");
+}
+
+// Eight lanes (AVX-512) against four: eight streams of cells a colour packed
+// eight at a time, or four packed four at a time, relax the same contacts in
+// another grouping; each body must still see the same arithmetic.
+TEST(ContactRows, EightLanesGiveTheBitsOfFour) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"});
+    const bool had = eight_lanes();
+    set_eight_lanes(false);
+    const std::string four = hex64(test::run(sc, 100, "grid", 1, "pgs")->last().state_hash);
+    set_eight_lanes(true);
+    const std::string eight = hex64(test::run(sc, 100, "grid", 1, "pgs")->last().state_hash);
+    set_eight_lanes(had);
+    EXPECT_EQ(four, eight) << (eight_lanes() ? "AVX-512 lanes" : "no AVX-512 here: both ran on four lanes");
 }
 
 }  // namespace

@@ -151,12 +151,28 @@ bool avx_available() {
 #endif
 }
 bool use_four = avx_available();
+bool avx512_available() {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    return __builtin_cpu_supports("avx512f");
+#else
+    return false;
+#endif
+}
+bool use_eight = avx512_available();
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 __attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
     relax_lanes<detail::Quad, 4>(K, bodies, c);
 }
+__attribute__((target("avx512f"))) void relax_avx512(SphereRow* const* K, BodyRow* bodies,
+                                                     const SphereRowConstants& c) {
+    relax_lanes<detail::Oct, 8>(K, bodies, c);
+}
 #else
+void relax_avx512(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+    relax_four(K, bodies, c);
+    relax_four(K + 4, bodies, c);
+}
 void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
     relax_lanes<detail::Pair, 2>(K, bodies, c);
     relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
@@ -185,6 +201,17 @@ void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2,
 
 bool four_lanes() { return use_four; }
 void set_four_lanes(bool on) { use_four = on && avx_available(); }
+
+void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+    if (use_eight) {
+        relax_avx512(K, bodies, c);
+        return;
+    }
+    relax_four(K, bodies, c);
+    relax_four(K + 4, bodies, c);
+}
+bool eight_lanes() { return use_eight; }
+void set_eight_lanes(bool on) { use_eight = on && avx512_available(); }
 
 void apply_impulses(const SphereRow& K, BodyRow* bodies) {
     BodyRow& B1 = bodies[K.b1];

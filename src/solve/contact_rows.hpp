@@ -52,8 +52,9 @@ struct SphereRow {
     std::int32_t b1, b2;  // body slots; b2 < 0: static
 };
 static_assert(sizeof(SphereRow) == 128, "a sphere row is 15 doubles and two slots: two cache lines");
-// Four lanes read a row as four blocks of four (n, r1 | r2, rhs | lambda, mu |
-// ad_n, ad_t, kt, slots) and write lambda and mu back as one block.
+// Four (AVX) or eight (AVX-512) lanes read a row as four blocks of four (n, r1 |
+// r2, rhs | lambda, mu | ad_n, ad_t, kt, slots) and write lambda and mu back
+// as one block.
 static_assert(offsetof(SphereRow, n) == 0 && offsetof(SphereRow, r1) == 24 && offsetof(SphereRow, r2) == 32 &&
                   offsetof(SphereRow, rhs) == 40 && offsetof(SphereRow, lambda) == 64 && offsetof(SphereRow, mu) == 88 &&
                   offsetof(SphereRow, ad_n) == 96 && offsetof(SphereRow, ad_t) == 104 && offsetof(SphereRow, kt) == 112,
@@ -170,6 +171,7 @@ inline void mul33(const double* M, const double* v, double* out) {
 #define PARODE_LANE_INLINE __attribute__((always_inline)) inline
 using Pair = double __attribute__((vector_size(16)));
 using Quad = double __attribute__((vector_size(32)));
+using Oct = double __attribute__((vector_size(64)));
 template <class V>
 constexpr int lanes() { return static_cast<int>(sizeof(V) / sizeof(double)); }
 template <class V>
@@ -239,6 +241,45 @@ PARODE_LANE_INLINE void load_blocks(const T* const* rec, std::size_t at, V* out)
 template <class V, class T>
 PARODE_LANE_INLINE void store_block(T* rec, std::size_t at, const V& v) {
     *reinterpret_cast<Unaligned<V>*>(reinterpret_cast<char*>(rec) + at) = v;
+}
+// Eight records' blocks of four doubles (a[l]: record l's) as four vectors of
+// eight lanes (out[i][l] = a[l][i]): records l and l + 4 joined in one
+// register, then two levels of two-source shuffles; untranspose8 is the
+// inverse. Only for V = Oct, inside the AVX-512 entry point (relax_eight).
+template <class V>
+PARODE_LANE_INLINE void transpose8(const Quad* a, V* out) {
+    V z[4], t[4];
+    for (int i = 0; i < 4; ++i) z[i] = __builtin_shufflevector(a[i], a[i + 4], 0, 1, 2, 3, 4, 5, 6, 7);
+    t[0] = __builtin_shufflevector(z[0], z[1], 0, 8, 2, 10, 4, 12, 6, 14);
+    t[1] = __builtin_shufflevector(z[0], z[1], 1, 9, 3, 11, 5, 13, 7, 15);
+    t[2] = __builtin_shufflevector(z[2], z[3], 0, 8, 2, 10, 4, 12, 6, 14);
+    t[3] = __builtin_shufflevector(z[2], z[3], 1, 9, 3, 11, 5, 13, 7, 15);
+    out[0] = __builtin_shufflevector(t[0], t[2], 0, 1, 8, 9, 4, 5, 12, 13);
+    out[1] = __builtin_shufflevector(t[1], t[3], 0, 1, 8, 9, 4, 5, 12, 13);
+    out[2] = __builtin_shufflevector(t[0], t[2], 2, 3, 10, 11, 6, 7, 14, 15);
+    out[3] = __builtin_shufflevector(t[1], t[3], 2, 3, 10, 11, 6, 7, 14, 15);
+}
+template <class V>
+PARODE_LANE_INLINE void untranspose8(const V* v, Quad* a) {
+    V t[4], o[4];
+    t[0] = __builtin_shufflevector(v[0], v[1], 0, 8, 2, 10, 4, 12, 6, 14);
+    t[1] = __builtin_shufflevector(v[0], v[1], 1, 9, 3, 11, 5, 13, 7, 15);
+    t[2] = __builtin_shufflevector(v[2], v[3], 0, 8, 2, 10, 4, 12, 6, 14);
+    t[3] = __builtin_shufflevector(v[2], v[3], 1, 9, 3, 11, 5, 13, 7, 15);
+    o[0] = __builtin_shufflevector(t[0], t[2], 0, 1, 8, 9, 4, 5, 12, 13);    // lanes 0 | 4
+    o[1] = __builtin_shufflevector(t[1], t[3], 0, 1, 8, 9, 4, 5, 12, 13);    // lanes 1 | 5
+    o[2] = __builtin_shufflevector(t[0], t[2], 2, 3, 10, 11, 6, 7, 14, 15);  // lanes 2 | 6
+    o[3] = __builtin_shufflevector(t[1], t[3], 2, 3, 10, 11, 6, 7, 14, 15);  // lanes 3 | 7
+    for (int i = 0; i < 4; ++i) {
+        a[i] = __builtin_shufflevector(o[i], o[i], 0, 1, 2, 3);
+        a[i + 4] = __builtin_shufflevector(o[i], o[i], 4, 5, 6, 7);
+    }
+}
+template <class V, class T>
+PARODE_LANE_INLINE void load_blocks8(const T* const* rec, std::size_t at, V* out) {
+    Quad in[8];
+    for (int l = 0; l < 8; ++l) in[l] = block_at<Quad>(rec[l], at);
+    transpose8(in, out);
 }
 // Square root lane by lane; SSE2 square roots on x86-64 (IEEE square
 // roots are correctly rounded: the same bits as std::sqrt, without its errno
@@ -336,10 +377,36 @@ PARODE_LANE_INLINE void store_lanes4(SphereRow* const* K, BodyRow* bodies, V n0,
     }
 }
 
+// The same for eight bodies' rows and eight lanes (relax_eight).
+template <class V>
+PARODE_LANE_INLINE void load_lanes8(const BodyRow* const* B, V* f, V& invm, V& invi) {
+    V b[4];
+    detail::load_blocks8(B, 0, f);
+    detail::load_blocks8(B, 4 * sizeof(double), b);
+    f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
+}
+template <class V>
+PARODE_LANE_INLINE void store_lanes8(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
+                                     V i1, const V* f2, V m2, V i2) {
+    using detail::Quad;
+    const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
+    Quad out[8], lo1[8], hi1[8], lo2[8], hi2[8];
+    detail::untranspose8(rows, out);
+    detail::untranspose8(f1, lo1);
+    detail::untranspose8(h1, hi1);
+    detail::untranspose8(f2, lo2);
+    detail::untranspose8(h2, hi2);
+    for (int l = 0; l < 8; ++l) {
+        detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
+        store_body4(bodies[K[l]->b1], lo1[l], hi1[l]);
+        if (K[l]->b2 >= 0) store_body4(bodies[K[l]->b2], lo2[l], hi2[l]);
+    }
+}
+
 // One projected Gauss-Seidel update of every row of L sphere contacts that
 // share no body (one per lane of V: double for one, detail::Pair for two,
-// detail::Quad for four),
-// bit for bit what each would give alone. The rows act on the relative
+// detail::Quad for four, detail::Oct for eight), bit for bit what each would
+// give alone. The rows act on the relative
 // velocity terms u = fc1_lin - fc2_lin and w = r1 fc1_ang + r2 fc2_ang only,
 // so u and w are updated in registers row by row (exactly the rows' own
 // effect) and the bodies' corrections once at the end: a short dependency
@@ -357,7 +424,19 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
     V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu, ad_n, ad_t, kt;
-    if constexpr (L == 4) {
+    if constexpr (L == 8) {
+        load_lanes8(B1, f1, m1, i1);
+        load_lanes8(B2, f2, m2, i2);
+        V b[4];
+        load_blocks8(K, offsetof(SphereRow, n), b);
+        n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
+        load_blocks8(K, offsetof(SphereRow, r2), b);
+        r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
+        load_blocks8(K, offsetof(SphereRow, lambda), b);
+        lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
+        load_blocks8(K, offsetof(SphereRow, ad_n), b);
+        ad_n = b[0], ad_t = b[1], kt = b[2];  // b[3]: the slots' bits, unused
+    } else if constexpr (L == 4) {
         load_lanes4(B1, f1, m1, i1);
         load_lanes4(B2, f2, m2, i2);
         V b[4];
@@ -423,7 +502,10 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         f2[i] -= m2 * dl[i];
         f2[3 + i] += k2 * da[i];
     }
-    if constexpr (L == 4) {
+    if constexpr (L == 8) {
+        store_lanes8(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
+        return;
+    } else if constexpr (L == 4) {
         store_lanes4(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
         return;
     }
@@ -450,6 +532,13 @@ void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& 
 // Whether relax_four uses AVX; tests may turn it off to compare.
 bool four_lanes();
 void set_four_lanes(bool on);
+// Eight contacts that share no body, in the eight lanes of an AVX-512
+// register when the processor has AVX-512F, else as two fours (the same
+// bits either way).
+void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c);
+// Whether relax_eight uses AVX-512; tests may turn it off to compare.
+bool eight_lanes();
+void set_eight_lanes(bool on);
 
 inline void relax(Block& K, BodyRow* bodies) {
     double* f1 = bodies[K.b1].fc;

@@ -330,58 +330,105 @@ void ContactSolver::build_phase() {
     if (exchange_) plan_exchange();
 }
 
-// Cells [t0, t1) of one colour as kStreams runs of whole cells with about equal
-// numbers of contacts. Each round takes the next contact of every stream and
-// relaxes them together, one per SIMD lane (contacts of different cells
-// of a colour share no body, so this is exactly relaxing the cells one after
-// the other, and each body still sees its contacts in canonical order); the
-// pairs are independent, so the processor also overlaps one with the next.
-// The body rows of a stream's contact kAhead places on are fetched early, its
-// contact rows 4 kAhead places on.
+// Cells [t0, t1) of one colour as `streams` runs of whole cells with about
+// equal numbers of contacts: eight where relax_eight has AVX-512, else four.
+// Each round takes the next contact of every stream and relaxes them
+// together, one per SIMD lane (contacts of different cells of a colour share
+// no body, so this is exactly relaxing the cells one after the other, and
+// each body still sees its contacts in canonical order); the packs are
+// independent, so the processor also overlaps one with the next. While every
+// stream has contacts left and all are sphere rows, rounds run without
+// per-stream checks (relax_rounds); the last rounds as streams run dry, or
+// with general blocks, one by one (relax_round).
 void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
-    constexpr int kStreams = 4;
-    constexpr std::size_t kAhead = 4;
-    BodyRow* hot = hot_.data();
-    const SphereRowConstants rc = row_constants();
-    std::size_t at[kStreams], end[kStreams];
+    const int streams = eight_lanes() ? 8 : 4;
+    std::size_t at[kMostStreams], end[kMostStreams];
     const std::size_t p0 = layout_.cell_begin(t0), p1 = layout_.cell_begin(t1);
     std::size_t t = t0;
-    for (int s = 0; s < kStreams; ++s) {
+    for (int s = 0; s < streams; ++s) {
         at[s] = layout_.cell_begin(t);
-        const std::size_t target = p0 + (p1 - p0) * static_cast<std::size_t>(s + 1) / kStreams;
+        const std::size_t target = p0 + (p1 - p0) * static_cast<std::size_t>(s + 1) / static_cast<std::size_t>(streams);
         while (t < t1 && layout_.cell_begin(t + 1) <= target) ++t;
-        if (s == kStreams - 1) t = t1;
+        if (s == streams - 1) t = t1;
         end[s] = layout_.cell_begin(t);
     }
-    for (bool busy = true; busy;) {
-        busy = false;
-        SphereRow* pack[kStreams];
-        int held = 0;
-        for (int s = 0; s < kStreams; ++s) {
+    for (;;) {
+        std::size_t rounds = ~std::size_t{0};
+        int live = 0;
+        for (int s = 0; s < streams; ++s) {
             if (at[s] == end[s]) continue;
-            busy = true;
-            const std::size_t p = at[s]++;
-            if (p + kAhead < end[s]) {
-                const SphereRow& A = rows_[p + kAhead];
-                if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
-                if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
-            }
-            if (p + 4 * kAhead < end[s]) {
-                const char* row = reinterpret_cast<const char*>(&rows_[p + 4 * kAhead]);
-                for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);  // two whole lines
-            }
-            SphereRow& K = rows_[p];
-            if (K.b1 < 0) {
-                relax(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
-                continue;
-            }
-            pack[held++] = &K;
+            ++live;
+            rounds = std::min(rounds, end[s] - at[s]);
         }
-        if (held == 4) relax_four(pack, hot, rc);
-        else if (held >= 2) relax_lanes<detail::Pair, 2>(pack, hot, rc);
-        if (held == 3) relax_lanes<double, 1>(pack + 2, hot, rc);
-        if (held == 1) relax_lanes<double, 1>(pack, hot, rc);
+        if (live == 0) return;
+        if (live < streams || !all_rows_) {
+            relax_round(at, end, streams);
+            continue;
+        }
+        relax_rounds(at, streams, rounds);
+        for (int s = 0; s < streams; ++s) at[s] += rounds;
     }
+}
+
+namespace {
+constexpr std::size_t kBodyAhead = 4, kRowAhead = 16;
+// What the sweeps fetch early: the body rows of a stream's contact kBodyAhead
+// places on, its contact row's two lines kRowAhead places on (positions
+// past the last row, n, are not fetched). Forced inline: as a function of
+// its own GCC finds it free of effects and drops the call.
+__attribute__((always_inline)) inline void prefetch_ahead(const SphereRow* rows, std::size_t n, const BodyRow* hot,
+                                                          std::size_t p) {
+    if (p + kBodyAhead < n) {
+        const SphereRow& A = rows[p + kBodyAhead];
+        if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
+        if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
+    }
+    if (p + kRowAhead < n) {
+        const char* row = reinterpret_cast<const char*>(&rows[p + kRowAhead]);
+        for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);  // two whole lines
+    }
+}
+}  // namespace
+
+// `rounds` rounds of full packs of sphere rows, streams [at[s], at[s] + rounds).
+void ContactSolver::relax_rounds(const std::size_t* at, int streams, std::size_t rounds) {
+    BodyRow* hot = hot_.data();
+    SphereRow* rows = rows_.data();
+    const std::size_t n = rows_.size();
+    const SphereRowConstants rc = row_constants();
+    SphereRow* pack[kMostStreams];
+    for (std::size_t r = 0; r < rounds; ++r) {
+        for (int s = 0; s < streams; ++s) {
+            prefetch_ahead(rows, n, hot, at[s] + r);
+            pack[s] = &rows[at[s] + r];
+        }
+        if (streams == 8) relax_eight(pack, hot, rc);
+        else relax_four(pack, hot, rc);
+    }
+}
+
+// One round: the next contact of every stream that has one.
+void ContactSolver::relax_round(std::size_t* at, const std::size_t* end, int streams) {
+    BodyRow* hot = hot_.data();
+    const SphereRowConstants rc = row_constants();
+    SphereRow* pack[kMostStreams];
+    int held = 0;
+    for (int s = 0; s < streams; ++s) {
+        if (at[s] == end[s]) continue;
+        const std::size_t p = at[s]++;
+        prefetch_ahead(rows_.data(), rows_.size(), hot, p);
+        SphereRow& K = rows_[p];
+        if (K.b1 < 0) {
+            relax(blocks_[static_cast<std::size_t>(-1 - K.b1)], hot);
+            continue;
+        }
+        pack[held++] = &K;
+    }
+    int done = 0;  // eight lanes, four, two, one at a time: the same bits whichever
+    if (held - done == 8) relax_eight(pack + done, hot, rc), done += 8;
+    if (held - done >= 4) relax_four(pack + done, hot, rc), done += 4;
+    if (held - done >= 2) relax_lanes<detail::Pair, 2>(pack + done, hot, rc), done += 2;
+    if (held - done == 1) relax_lanes<double, 1>(pack + done, hot, rc);
 }
 
 namespace {

@@ -122,6 +122,9 @@ protected:
     // Relaxes (or, with `warm`, applies the warm-start impulses of) cells
     // [t0, t1) of one colour.
     void relax_cells(std::size_t t0, std::size_t t1);
+    static constexpr int kMostStreams = 8;
+    void relax_rounds(const std::size_t* at, int streams, std::size_t rounds);
+    void relax_round(std::size_t* at, const std::size_t* end, int streams);
     SphereRowConstants row_constants() const;
     void warm_cells(std::size_t t0, std::size_t t1);
     // `passes` sweeps over the colours; after each colour, exchange_after.
