@@ -2,7 +2,9 @@
 """Runs for the speed-against-error front of the contact solver's settings,
 with error measures that rank configurations where the end state is chaotic.
 
-Three kinds of runs, all with parode's contact solver (`--solver parallel`):
+Three kinds of runs, all with parode's contact solvers (`--solver parallel`, or
+`adaptive/omp` for the configurations named adaptive-*: a setting "solver=NAME"
+in a configuration picks the solver):
 - ensembles: every configuration on SEEDS seeds (scene.seed moves the jitter of
   the prism), and the same seeds with a converged reference configuration
   (dt / 4, 100 iterations): their trajectories give the ensemble observables
@@ -70,8 +72,14 @@ class Plan:
         erp, cfm = sv.get("erp", 0.2), sv.get("cfm", 1e-5)
         cat = sc.get("catoms", {})
         self.radius, self.jitter = cat.get("radius", 0.5), cat.get("jitter", 0.01)
+        adaptive = ["solver=adaptive/omp"]
         self.configs = {
             "default": [],
+            "adaptive": adaptive,
+            "adaptive-s6": adaptive + ["solver.adaptive_sweeps=6"],
+            "adaptive-s10": adaptive + ["solver.adaptive_sweeps=10"],
+            "adaptive-tol0.1": adaptive + ["solver.tolerance=0.1"],
+            "adaptive-x10": adaptive + ["solver.extra_sweeps=10"],
             "it5": ["solver.iterations=5"],
             "it10": ["solver.iterations=10"],
             "it40": ["solver.iterations=40"],
@@ -95,8 +103,11 @@ class Plan:
         self.stiff = [f"scene.dt={dt / 4:g}", "solver.iterations=100"]
         self.fine = [f"scene.dt={dt / 8:g}", "solver.iterations=200"] + same_spring(erp, cfm, 8)
 
-    def all(self):
-        return list(self.configs.items()) + [("converged", self.converged), ("stiff", self.stiff)]
+    def all(self, only=None):
+        """Every configuration and the references (only: these names, and the
+        converged reference every measure compares with)."""
+        every = list(self.configs.items()) + [("converged", self.converged), ("stiff", self.stiff)]
+        return [(n, s) for n, s in every if not only or n in only or n == "converged"]
 
 
 def stiffer(erp, cfm):
@@ -111,10 +122,12 @@ def parode_run(args, sets, report, extra=(), threads=1):
     if os.path.exists(report) and not args.force:
         return
     os.makedirs(os.path.dirname(report), exist_ok=True)
-    cmd = [args.parode, "run", args.scene, "--collide", "grid", "--solver", "parallel", "--threads", str(threads),
+    solver = next((s.split("=", 1)[1] for s in sets if s.startswith("solver=")), "parallel")
+    cmd = [args.parode, "run", args.scene, "--collide", "grid", "--solver", solver, "--threads", str(threads),
            "-q", "--report", report] + list(extra)
     for s in sets:
-        cmd += ["--set", s]
+        if not s.startswith("solver="):
+            cmd += ["--set", s]
     print(" ".join(os.path.relpath(c, ROOT) if c.startswith(ROOT) else c for c in cmd), flush=True)
     subprocess.run(cmd, check=True, timeout=args.timeout)
 
@@ -123,7 +136,7 @@ def ensembles(args):
     common = [f"catoms.count={args.count}"]
     length = ["--duration", str(args.duration)]
     for seed in range(1, args.seeds + 1):
-        for name, sets in args.plan.all():
+        for name, sets in args.plan.all(args.configs):
             traj = os.path.join(args.traj, f"{name}.seed{seed}.traj")
             os.makedirs(args.traj, exist_ok=True)
             parode_run(args, common + sets + [f"scene.seed={seed}"],
@@ -134,12 +147,13 @@ def horizons(args):
     common = [f"catoms.count={args.count}", "scene.seed=1"]
     length = ["--duration", str(args.horizon)]
     fine = os.path.join(args.traj, "fine.traj")
+    os.makedirs(args.traj, exist_ok=True)
     plan = args.plan
     parode_run(args, common + plan.fine, os.path.join(args.out, "horizon", "fine.json"), length + ["--trajectory", fine])
     nudge = plan.jitter * (1 + 2e-9 / plan.radius)  # every catom moves by less than 1e-9 m
     parode_run(args, common + plan.fine + [f"catoms.jitter={nudge!r}"], os.path.join(args.out, "horizon", "fine-nudged.json"),
                length + ["--reference", fine])
-    for name, sets in plan.all():
+    for name, sets in plan.all(args.configs):
         parode_run(args, common + sets, os.path.join(args.out, "horizon", f"{name}.json"), length + ["--reference", fine])
 
 
@@ -151,9 +165,10 @@ def exact(args):
     te.PARODE = args.parode
     configs = {"quickstep": ["--solver", "ode"]}
     for name, sets in args.plan.configs.items():
-        if any(s.startswith("scene.dt=") for s in sets):
+        if any(s.startswith("scene.dt=") for s in sets) or (args.configs and name not in args.configs):
             continue
-        configs[name] = ["--solver", "parallel"] + [x for s in sets for x in ("--set", s)]
+        solver = next((s.split("=", 1)[1] for s in sets if s.startswith("solver=")), "parallel")
+        configs[name] = ["--solver", solver] + [x for s in sets if not s.startswith("solver=") for x in ("--set", s)]
     out = {}
     for name, opt in configs.items():
         row = {}
@@ -207,6 +222,7 @@ def main():
     ap.add_argument("--seeds", type=int, default=8)
     ap.add_argument("--cost-counts", type=int, nargs="*", default=[64000])
     ap.add_argument("--cost-configs", nargs="*", help="time only these configurations")
+    ap.add_argument("--configs", nargs="*", help="ensembles, horizons and exact invariants of only these configurations")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--max-load", type=float, default=0.3,
                     help="cores busy with other work (measured for 0.5 s before each timed run) that mark it disturbed")

@@ -177,4 +177,7 @@ void MpiDomain::complete(int colour, const CorrectionView& fc) {
     }
 }
 
+// One maximum over the processes (exact).
+bool MpiDomain::any(bool mine) { return collectives_.max(mine ? 1.0 : 0.0) > 0; }
+
 }  // namespace parode::mpi

@@ -86,6 +86,7 @@ public:
     void plan(const std::vector<std::vector<std::uint32_t>>& touched) override;
     void post(int colour, const CorrectionView& fc) override;
     void complete(int colour, const CorrectionView& fc) override;
+    bool any(bool mine) override;
     // The next message of every colour names its bodies again, as after
     // plan() (for tests: a process that disagrees with its neighbours).
     void restart_names() { corr_named_.assign(corr_named_.size(), 0); }

@@ -28,6 +28,14 @@ void add_stages(Stages& stages) {
             return std::make_unique<ParallelContactSolver>(s, e);
         },
         {"pgs/omp"}, "pgs with its sweeps on the execution's threads: the same bits");
+    stages.solver.add(
+        "adaptive/omp",
+        [](const Scene& s, Execution& e) -> std::unique_ptr<SolverBackend> {
+            const std::string no = contact_solver_unsupported(s);
+            if (!no.empty()) return make_ode_solver(s, "adaptive solver not used: " + no);
+            return std::make_unique<ParallelContactSolver>(s, e, true);
+        },
+        {}, "adaptive with its sweeps on the execution's threads: the same bits");
 }
 
 }  // namespace parode::omp

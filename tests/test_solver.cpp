@@ -55,6 +55,49 @@ TEST_P(Classic, ParallelSolverOnOneToFourThreadsMatchesSerialPgs) {
 
 INSTANTIATE_TEST_SUITE_P(Scenes, Classic, ::testing::Values("tennis", "magnetic-tennis"));
 
+// The adaptive solver: its serial reference and its threads give one state
+// hash; with a tolerance no cell reaches, it is pgs with adaptive_sweeps
+// iterations bit for bit (its last sweep, over the listed cells, is a plain
+// sweep); with the default tolerance it sweeps some cells again, and ends
+// nearer a converged reference (QuickStep, 200 iterations) than those fixed
+// sweeps alone.
+TEST(AdaptiveSolver, ThreadsGiveTheSerialBits) {
+    const std::string serial = hex64(run_scene("tennis", 200, "adaptive", 1, 20).p->last().state_hash);
+    for (int t = 1; t <= 3; ++t) {
+        EXPECT_EQ(hex64(run_scene("tennis", 200, "adaptive/omp", t, 20).p->last().state_hash), serial) << t << " threads";
+    }
+}
+
+TEST(AdaptiveSolver, UnreachedToleranceIsPgsWithItsSweeps) {
+    SceneRun fixed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
+    fixed.scene->solver.iterations = fixed.scene->solver.adaptive_sweeps;
+    fixed.p = run_with(*fixed.scene, 200, "parallel", 2);
+    SceneRun listed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
+    listed.scene->solver.tolerance = 1e9;
+    listed.p = run_with(*listed.scene, 200, "adaptive/omp", 2);
+    EXPECT_EQ(hex64(listed.p->last().state_hash), hex64(fixed.p->last().state_hash));
+    const ActiveWork* a = listed.p->solver().active_work();
+    ASSERT_NE(a, nullptr);
+    EXPECT_EQ(a->sweeps, a->steps);  // one listed sweep a step: the last of every cell
+    EXPECT_EQ(a->relaxed, a->contacts);
+}
+
+TEST(AdaptiveSolver, SweepsChangingCellsAgainAndEndsNearerTheReference) {
+    const SceneRun ref = run_scene("tennis", 50, "ode", 1, 200);
+    SceneRun fixed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
+    fixed.scene->solver.iterations = fixed.scene->solver.adaptive_sweeps;
+    fixed.p = run_with(*fixed.scene, 50, "parallel", 2);
+    const SceneRun adaptive = run_scene("tennis", 50, "adaptive/omp", 2, 20);
+    const ActiveWork* a = adaptive.p->solver().active_work();
+    ASSERT_NE(a, nullptr);
+    EXPECT_GT(a->sweeps, a->steps);       // cells swept again
+    EXPECT_LT(a->relaxed, 4 * a->contacts);  // but not every cell every time
+    const double e_fixed = rms_error(*fixed.p, *ref.p), e_adaptive = rms_error(*adaptive.p, *ref.p);
+    EXPECT_LT(e_adaptive, e_fixed) << "RMS position error vs QuickStep at 200 iterations";
+    RecordProperty("rms_fixed", std::to_string(e_fixed));
+    RecordProperty("rms_adaptive", std::to_string(e_adaptive));
+}
+
 struct Accuracy {
     const char* scene;
     int steps;

@@ -192,6 +192,66 @@ ParallelContactSolver::PhaseTimes ParallelContactSolver::colour_threaded(int c, 
     return pt;
 }
 
+// The adaptive solver's sweep of listed cells on the team's threads: per
+// colour its listed boundary cells cut among the threads by contacts, a
+// barrier, the master posts the corrections while every thread relaxes its
+// share of the listed interior cells, a barrier, the master completes the
+// exchange, a barrier (without an exchange: the two classes and one barrier).
+// Cells of one colour touch disjoint bodies and each cell's change is its
+// own, so the split decides nothing but who relaxes what.
+void ParallelContactSolver::list_sweep() {
+    Team& team = execution().team();
+    const int t = team.threads(listed_contacts(listed_begin(2 * kColours)), kSweepCrossover);
+    if (t <= 1) {
+        ContactSolver::list_sweep();
+        return;
+    }
+    std::exception_ptr failed;
+#pragma omp parallel num_threads(t) shared(failed)
+    {
+        const auto me = static_cast<std::size_t>(thread_index()), n = static_cast<std::size_t>(t);
+        for (int c = 0; c < kColours && !failed; ++c) {
+            relax_listed_share(listed_begin(2 * c), listed_begin(2 * c + 1), me, n);
+#pragma omp barrier
+#pragma omp master
+            if (exchanging()) {
+                try {
+                    post_after_boundary(c);
+                } catch (...) {  // an exception may not leave a parallel region
+                    failed = std::current_exception();
+                }
+            }
+            relax_listed_share(listed_begin(2 * c + 1), listed_begin(2 * c + 2), me, n);
+#pragma omp barrier
+#pragma omp master
+            if (exchanging() && !failed) {
+                try {
+                    complete_after_interior(c);
+                } catch (...) {
+                    failed = std::current_exception();
+                }
+            }
+#pragma omp barrier
+        }
+    }
+    if (failed) std::rethrow_exception(failed);
+}
+
+void ParallelContactSolver::relax_listed_share(std::size_t a0, std::size_t a1, std::size_t me, std::size_t team) {
+    const std::size_t c0 = listed_contacts(a0), c1 = listed_contacts(a1);
+    const auto first = [&](std::size_t j) {  // the first entry at or after share j's start
+        const std::size_t target = c0 + (c1 - c0) * j / team;
+        std::size_t lo = a0, hi = a1;
+        while (lo < hi) {
+            const std::size_t mid = (lo + hi) / 2;
+            if (listed_contacts(mid) < target) lo = mid + 1;
+            else hi = mid;
+        }
+        return lo;
+    };
+    relax_listed(me == 0 ? a0 : first(me), me + 1 == team ? a1 : first(me + 1));
+}
+
 // Steps [from, steps) on this thread: the colours of the pass under way, then
 // whole passes.
 void ParallelContactSolver::finish_alone(long from, long steps, bool warm) {

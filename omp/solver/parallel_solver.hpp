@@ -30,10 +30,13 @@ namespace parode::omp {
 class ParallelContactSolver final : public ContactSolver {
 public:
     using ContactSolver::ContactSolver;
-    std::string name() const override { return "parallel"; }
+    std::string name() const override { return adaptive() ? "adaptive/omp" : "parallel"; }
     void step(World& world, const ContactBuffer& contacts) override;
 
 private:
+    void list_sweep() override;
+    // Thread `me` of `team`'s share of listed entries [a0, a1), by contacts.
+    void relax_listed_share(std::size_t a0, std::size_t a1, std::size_t me, std::size_t team);
     // Phases: colour c's boundary cells (2c), then its interior cells (2c + 1).
     static constexpr int kPhases = 2 * kColours;
     struct PhaseTimes {

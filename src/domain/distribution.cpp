@@ -16,9 +16,11 @@ DistributionVerdict distribution_verdict(const Scene& sc, const std::string& sol
     if (!sc.joints.empty()) return refuse(why + "a contact-only scene, and this one has joints" + one);
     if (sc.controller.enabled) return refuse(why + "a contact-only scene, and this one has a [controller]" + one);
     if (sc.solver.auto_disable) return refuse(why + "solver.auto_disable off (sleeping bodies need ODE's islands)" + one);
-    if (solver != "parallel" && solver != "pgs") {
+    const bool contact_solver = solver == "parallel" || solver == "pgs" || solver == "pgs/omp" || solver == "adaptive" ||
+                                solver == "adaptive/omp";
+    if (!contact_solver) {
         return refuse("--solver " + solver + " runs ODE's stepper, which needs every body in one process; "
-                      "use --solver parallel (parode's contact solver: the same result for any number of processes)",
+                      "use --solver parallel or adaptive/omp (parode's contact solvers: the same result for any number of processes)",
                       true);
     }
     if (sc.any_magnets()) {

@@ -95,6 +95,17 @@ double solver_exchange_seconds(const Pipeline& p) {
     return s ? s->seconds("exchange") : 0;
 }
 
+// The adaptive solver's active sweeps: per step (substep), the sweeps of
+// listed cells (the last sweep of every cell included) and the contacts they
+// relaxed as a share of the step's (summed over the processes, exactly).
+nlohmann::json active_json(const Collectives& domain, const ActiveWork& a) {
+    std::int64_t v[2] = {a.relaxed, a.contacts};
+    domain.sum(v, 2);
+    const double steps = static_cast<double>(std::max<std::int64_t>(a.steps, 1));
+    return {{"sweeps_per_step", static_cast<double>(a.sweeps) / steps},
+            {"relaxed_per_step", v[1] ? static_cast<double>(v[0]) / static_cast<double>(v[1]) : 0.0}};
+}
+
 // Per colour of the contact solver: the seconds its cells took and the
 // seconds waiting for the other processes' corrections, {min, avg, max} over
 // ranks; and the colours' imbalance: what a run pays when every colour waits
@@ -143,7 +154,7 @@ nlohmann::json program_json(const Collectives& domain, const ProgramPass& pass) 
 // Substages reported for a stage whose backend times them, in this order.
 const std::vector<std::pair<Stage, std::vector<const char*>>>& substage_names() {
     static const std::vector<std::pair<Stage, std::vector<const char*>>> names = {
-        {Stage::Solve, {"build", "warm_start", "sweeps", "integrate"}},
+        {Stage::Solve, {"build", "warm_start", "sweeps", "active", "integrate"}},
         {Stage::Collide, {"refresh", "broadphase", "narrowphase", "merge"}},
         {Stage::Forces, {"program", "magnets", "controller"}}};
     return names;
@@ -230,6 +241,7 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     r["backends"] = backends_json(p);
     r["solver"] = solver_json(scene.solver);
     r["solver"]["backend"] = p.solver().name();  // what ran: "parallel", "ode-quickstep", ...
+    if (const ActiveWork* a = p.solver().active_work()) r["solver"]["active"] = active_json(domain, *a);
     nlohmann::json stages = nlohmann::json::object(), ran = nlohmann::json::object(), ranks = nlohmann::json::object();
     for (int s = 0; s < kStageCount; ++s) {
         const StageState& st = p.stage(static_cast<Stage>(s));

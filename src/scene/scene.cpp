@@ -97,7 +97,8 @@ int Scene::find_joint(const std::string& n) const {
 
 nlohmann::json solver_json(const SolverSpec& s) {
     return {{"stepper", s.stepper == Stepper::Quick ? "quick" : "world"}, {"iterations", s.iterations},
-            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}, {"substeps", s.substeps}};
+            {"sor_w", s.sor_w}, {"erp", s.erp}, {"cfm", s.cfm}, {"substeps", s.substeps},
+            {"adaptive_sweeps", s.adaptive_sweeps}, {"tolerance", s.tolerance}, {"extra_sweeps", s.extra_sweeps}};
 }
 
 }  // namespace parode

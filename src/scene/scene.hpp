@@ -143,6 +143,12 @@ struct SolverSpec {
     int max_contacts = 4;
     bool warm_start = true;  // project contact solver only
     int substeps = 1;        // project contact solver only: substeps a step (contact_solver.hpp)
+    // The adaptive contact solver only (solve/active_sweeps.cpp): sweeps of
+    // every cell, then sweeps of the cells whose last relaxation changed a
+    // relative velocity by more than `tolerance` (m/s), at most `extra_sweeps`.
+    int adaptive_sweeps = 8;
+    double tolerance = 0.03;
+    int extra_sweeps = 30;
     bool auto_disable = false;
     double auto_disable_linear = 0.01;
     double auto_disable_angular = 0.01;

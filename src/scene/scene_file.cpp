@@ -108,6 +108,9 @@ void read_solver(const Node& root, SolverSpec& s) {
     s.max_contacts = static_cast<int>(t.integer("max_contacts", s.max_contacts, 1, 64));
     s.warm_start = t.boolean("warm_start", s.warm_start);
     s.substeps = static_cast<int>(t.integer("substeps", s.substeps, 1, 64));
+    s.adaptive_sweeps = static_cast<int>(t.integer("adaptive_sweeps", s.adaptive_sweeps, 1, 100000));
+    s.tolerance = t.number("tolerance", s.tolerance, 0.0);
+    s.extra_sweeps = static_cast<int>(t.integer("extra_sweeps", s.extra_sweeps, 0, 100000));
     if (!t.has("auto_disable")) return;
     const Node a = t.at("auto_disable");
     a.expect_keys(table_keys("solver.auto_disable"));

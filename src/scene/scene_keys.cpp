@@ -158,6 +158,12 @@ std::vector<SceneKey> build() {
          boolean("warm_start", sv.warm_start).means("parode's contact solver starts from last step's impulses"),
          integer("substeps").in(1, 64).def(sv.substeps)
              .means("parode's contact solver: substeps a step, `iterations` sweeps each, one collision"),
+         integer("adaptive_sweeps").in(1, 100000).def(sv.adaptive_sweeps)
+             .means("the adaptive solver: sweeps of every cell a step (a substep), before its active sweeps"),
+         num("tolerance").unit("m/s").in(0, kInf).def(sv.tolerance)
+             .means("the adaptive solver: a cell is swept again while its last sweep changed a relative velocity by more"),
+         integer("extra_sweeps").in(0, 100000).def(sv.extra_sweeps)
+             .means("the adaptive solver: most sweeps of the cells still changing, after `adaptive_sweeps`"),
          table("auto_disable").def("off").means("ODE's auto-disable (resting bodies sleep); writing the table turns it on")});
     add(out, "solver.auto_disable",
         {boolean("enabled", true).means("true once the table is written"),

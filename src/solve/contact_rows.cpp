@@ -161,32 +161,33 @@ bool avx512_available() {
 bool use_eight = avx512_available();
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
-    relax_lanes<detail::Quad, 4>(K, bodies, c);
+__attribute__((target("avx"))) void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c,
+                                              double* change) {
+    relax_lanes<detail::Quad, 4>(K, bodies, c, change);
 }
-__attribute__((target("avx512f"))) void relax_avx512(SphereRow* const* K, BodyRow* bodies,
-                                                     const SphereRowConstants& c) {
-    relax_lanes<detail::Oct, 8>(K, bodies, c);
+__attribute__((target("avx512f"))) void relax_avx512(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c,
+                                                     double* change) {
+    relax_lanes<detail::Oct, 8>(K, bodies, c, change);
 }
 #else
-void relax_avx512(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
-    relax_four(K, bodies, c);
-    relax_four(K + 4, bodies, c);
+void relax_avx512(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change) {
+    relax_four(K, bodies, c, change);
+    relax_four(K + 4, bodies, c, change ? change + 4 : nullptr);
 }
-void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
-    relax_lanes<detail::Pair, 2>(K, bodies, c);
-    relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
+void relax_avx(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change) {
+    relax_lanes<detail::Pair, 2>(K, bodies, c, change);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies, c, change ? change + 2 : nullptr);
 }
 #endif
 }  // namespace
 
-void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change) {
     if (use_four) {
-        relax_avx(K, bodies, c);
+        relax_avx(K, bodies, c, change);
         return;
     }
-    relax_lanes<detail::Pair, 2>(K, bodies, c);
-    relax_lanes<detail::Pair, 2>(K + 2, bodies, c);
+    relax_lanes<detail::Pair, 2>(K, bodies, c, change);
+    relax_lanes<detail::Pair, 2>(K + 2, bodies, c, change ? change + 2 : nullptr);
 }
 
 void sphere_row_masses(const SphereRow& K, double invm1, double invi1, double invm2, double invi2,
@@ -202,13 +203,13 @@ void sphere_row_masses(const SphereRow& K, const BodyRow& B1, const BodyRow& B2,
 bool four_lanes() { return use_four; }
 void set_four_lanes(bool on) { use_four = on && avx_available(); }
 
-void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change) {
     if (use_eight) {
-        relax_avx512(K, bodies, c);
+        relax_avx512(K, bodies, c, change);
         return;
     }
-    relax_four(K, bodies, c);
-    relax_four(K + 4, bodies, c);
+    relax_four(K, bodies, c, change);
+    relax_four(K + 4, bodies, c, change ? change + 4 : nullptr);
 }
 bool eight_lanes() { return use_eight; }
 void set_eight_lanes(bool on) { use_eight = on && avx512_available(); }

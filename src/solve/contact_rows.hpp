@@ -60,6 +60,24 @@ static_assert(offsetof(SphereRow, n) == 0 && offsetof(SphereRow, r1) == 24 && of
                   offsetof(SphereRow, ad_n) == 96 && offsetof(SphereRow, ad_t) == 104 && offsetof(SphereRow, kt) == 112,
               "a sphere row's doubles lie in the order the four-lane loads read them");
 
+// What the sweeps fetch early, for a stream of rows at position p of n: the
+// body rows of its contact kBodyAhead places on, its row's two lines
+// kRowAhead places on (none past the last). Forced inline: as a function of
+// its own GCC finds it free of effects and drops the call.
+inline constexpr std::size_t kBodyAhead = 4, kRowAhead = 16;
+__attribute__((always_inline)) inline void prefetch_ahead(const SphereRow* rows, std::size_t n, const BodyRow* hot,
+                                                          std::size_t p) {
+    if (p + kBodyAhead < n) {
+        const SphereRow& A = rows[p + kBodyAhead];
+        if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
+        if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
+    }
+    if (p + kRowAhead < n) {
+        const char* row = reinterpret_cast<const char*>(&rows[p + kRowAhead]);
+        for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);  // two whole lines
+    }
+}
+
 // What every sphere row of a step shares: the SOR factor and CFM / dt (the
 // solver keeps a contact as a SphereRow only where all its rows' CFM is the
 // solver's, ContactSolver::sphere_pair).
@@ -206,6 +224,8 @@ PARODE_LANE_INLINE V gather_lanes(Get get) {
 }
 template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
+template <class V>
+PARODE_LANE_INLINE V max(V a, V b) { return a < b ? b : a; }
 // Four blocks of four doubles transposed in registers (out[i][l] = in[l][i]):
 // two unpacks and two lane swaps a pair instead of sixteen single loads or
 // stores. Only for V = Quad.
@@ -413,8 +433,13 @@ PARODE_LANE_INLINE void store_lanes8(SphereRow* const* K, BodyRow* bodies, V n0,
 // chain instead of a round trip through memory per row. A static partner
 // reads as a body at rest with zero inverse mass; the friction rows of a
 // frictionless contact are clamped to zero: every lane runs the same code.
+// `change`: null, or where each lane's change goes (L doubles): m1 + m2
+// times the largest change of its three impulses, the largest change of a
+// relative velocity term it made (times the step: m/s), which the active
+// sweeps compare with their tolerance.
 template <class V, int L>
-PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c) {
+PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c,
+                                    double* change = nullptr) {
     using namespace detail;
     static const BodyRow none{};
     const BodyRow* B1[L];
@@ -493,6 +518,10 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
     x = lam[2] + ad_t * (rhs[2] - cfm * lam[2] - (dot(t2, u) + dot(t1, w)));
     const V n2 = clamp(x, lo, hi);
     const V d2 = n2 - lam[2];
+    if (change) {
+        const V big = m * max(abs(d0), max(abs(d1), abs(d2)));
+        for (int l = 0; l < L; ++l) change[l] = lane(big, l);
+    }
     V dl[3], da[3];
     for (int i = 0; i < 3; ++i) {
         dl[i] = d0 * n[i] + (d1 * t1[i] + d2 * t2[i]);
@@ -521,28 +550,29 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
     }
 }
 
-inline void relax(SphereRow& K, BodyRow* bodies, const SphereRowConstants& c) {
+inline void relax(SphereRow& K, BodyRow* bodies, const SphereRowConstants& c, double* change = nullptr) {
     SphereRow* one = &K;
-    relax_lanes<double, 1>(&one, bodies, c);
+    relax_lanes<double, 1>(&one, bodies, c, change);
 }
 
 // Four contacts that share no body, in the four lanes of an AVX register when
 // the processor has AVX (bit for bit the same as two pairs).
-void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c);
+void relax_four(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change = nullptr);
 // Whether relax_four uses AVX; tests may turn it off to compare.
 bool four_lanes();
 void set_four_lanes(bool on);
 // Eight contacts that share no body, in the eight lanes of an AVX-512
 // register when the processor has AVX-512F, else as two fours (the same
 // bits either way).
-void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c);
+void relax_eight(SphereRow* const* K, BodyRow* bodies, const SphereRowConstants& c, double* change = nullptr);
 // Whether relax_eight uses AVX-512; tests may turn it off to compare.
 bool eight_lanes();
 void set_eight_lanes(bool on);
 
-inline void relax(Block& K, BodyRow* bodies) {
+inline void relax(Block& K, BodyRow* bodies, double* change = nullptr) {
     double* f1 = bodies[K.b1].fc;
     double* f2 = K.b2 >= 0 ? bodies[K.b2].fc : nullptr;
+    if (change) *change = 0;
     for (int row = 0; row < K.rows; ++row) {
         const double* J = K.J[row];
         double delta = K.rhs[row] - K.lambda[row] * K.cfm[row] - detail::dot3(J, f1) - detail::dot3(J + 3, f1 + 3);
@@ -557,6 +587,9 @@ inline void relax(Block& K, BodyRow* bodies) {
         for (int i = 0; i < 6; ++i) f1[i] += delta * iMJ[i];
         if (f2) {
             for (int i = 0; i < 6; ++i) f2[i] += delta * iMJ[6 + i];
+        }
+        for (int i = 0; change && i < 3; ++i) {
+            *change = std::max(*change, std::fabs(delta * (iMJ[i] - (f2 ? iMJ[6 + i] : 0.0))));
         }
     }
 }

@@ -61,8 +61,13 @@ bool sphere_or_plane(World::GeomShape s) { return s == World::GeomShape::Sphere 
 
 // A body's contacts are owned by cells within 2 r_max of it: with cells of
 // 4 r_max they span at most two cells per axis, of different parity.
-ContactSolver::ContactSolver(const Scene& scene, Execution& exec)
-    : scene_(scene), exec_(exec), cells_(scene), substeps_(scene.solver.substeps), h_(scene.dt / scene.solver.substeps) {}
+ContactSolver::ContactSolver(const Scene& scene, Execution& exec, bool adaptive)
+    : scene_(scene),
+      exec_(exec),
+      cells_(scene),
+      substeps_(scene.solver.substeps),
+      h_(scene.dt / scene.solver.substeps),
+      adaptive_(adaptive) {}
 
 void ContactSolver::prepare_body(std::size_t i) {
     dBodyID b = world_->body(i);
@@ -370,26 +375,6 @@ void ContactSolver::relax_cells(std::size_t t0, std::size_t t1) {
     }
 }
 
-namespace {
-constexpr std::size_t kBodyAhead = 4, kRowAhead = 16;
-// What the sweeps fetch early: the body rows of a stream's contact kBodyAhead
-// places on, its contact row's two lines kRowAhead places on (positions
-// past the last row, n, are not fetched). Forced inline: as a function of
-// its own GCC finds it free of effects and drops the call.
-__attribute__((always_inline)) inline void prefetch_ahead(const SphereRow* rows, std::size_t n, const BodyRow* hot,
-                                                          std::size_t p) {
-    if (p + kBodyAhead < n) {
-        const SphereRow& A = rows[p + kBodyAhead];
-        if (A.b1 >= 0) __builtin_prefetch(&hot[A.b1], 1);
-        if (A.b2 >= 0) __builtin_prefetch(&hot[A.b2], 1);
-    }
-    if (p + kRowAhead < n) {
-        const char* row = reinterpret_cast<const char*>(&rows[p + kRowAhead]);
-        for (std::size_t b = 0; b < sizeof(SphereRow); b += 64) __builtin_prefetch(row + b, 1);  // two whole lines
-    }
-}
-}  // namespace
-
 // `rounds` rounds of full packs of sphere rows, streams [at[s], at[s] + rounds).
 void ContactSolver::relax_rounds(const std::size_t* at, int streams, std::size_t rounds) {
     BodyRow* hot = hot_.data();
@@ -410,7 +395,6 @@ void ContactSolver::relax_rounds(const std::size_t* at, int streams, std::size_t
 // One round: the next contact of every stream that has one.
 void ContactSolver::relax_round(std::size_t* at, const std::size_t* end, int streams) {
     BodyRow* hot = hot_.data();
-    const SphereRowConstants rc = row_constants();
     SphereRow* pack[kMostStreams];
     int held = 0;
     for (int s = 0; s < streams; ++s) {
@@ -424,11 +408,21 @@ void ContactSolver::relax_round(std::size_t* at, const std::size_t* end, int str
         }
         pack[held++] = &K;
     }
-    int done = 0;  // eight lanes, four, two, one at a time: the same bits whichever
-    if (held - done == 8) relax_eight(pack + done, hot, rc), done += 8;
-    if (held - done >= 4) relax_four(pack + done, hot, rc), done += 4;
-    if (held - done >= 2) relax_lanes<detail::Pair, 2>(pack + done, hot, rc), done += 2;
-    if (held - done == 1) relax_lanes<double, 1>(pack + done, hot, rc);
+    relax_pack(pack, held, nullptr);
+}
+
+// `held` sphere rows of different cells of one colour: eight lanes, four,
+// two, one at a time (the same bits whichever); each one's change into
+// change[0, held) unless null.
+void ContactSolver::relax_pack(SphereRow* const* pack, int held, double* change) {
+    BodyRow* hot = hot_.data();
+    const SphereRowConstants rc = row_constants();
+    int done = 0;
+    const auto at = [&]() { return change ? change + done : nullptr; };
+    if (held - done == 8) relax_eight(pack + done, hot, rc, at()), done += 8;
+    if (held - done >= 4) relax_four(pack + done, hot, rc, at()), done += 4;
+    if (held - done >= 2) relax_lanes<detail::Pair, 2>(pack + done, hot, rc, at()), done += 2;
+    if (held - done == 1) relax_lanes<double, 1>(pack + done, hot, rc, at());
 }
 
 namespace {
@@ -591,18 +585,14 @@ void ContactSolver::step(World& world, const ContactBuffer& contacts) {
         SubstageTimer t(times_, "warm_start");
         if (scene_.solver.warm_start) sweep(1, true);
     }
-    {
-        SubstageTimer t(times_, "sweeps");
-        sweep(iterations(), false);
-    }
+    iterate();
     for (int s = 1; s < substeps_; ++s) {
         {
             SubstageTimer t(times_, "integrate");
             advance_bodies();
             refresh_rows();
         }
-        SubstageTimer t(times_, "sweeps");
-        sweep(iterations(), false);
+        iterate();
     }
     integrate_phase(world);
 }

@@ -88,6 +88,9 @@ public:
     virtual void post(int colour, const CorrectionView& fc) = 0;
     // After its interior cells: take the other processes' corrections.
     virtual void complete(int colour, const CorrectionView& fc) = 0;
+    // Whether any process says yes (the adaptive solver: whether any cell
+    // anywhere is swept again); every process calls it alike.
+    virtual bool any(bool mine) { return mine; }
     void exchange(int colour, const CorrectionView& fc) {
         post(colour, fc);
         complete(colour, fc);
@@ -99,15 +102,18 @@ class ContactSolver : public SolverBackend {
 public:
     // Its loops, per-step tables and (omp/) threads come from `exec`, which
     // must outlive it.
-    ContactSolver(const Scene& scene, Execution& exec);
-    ContactSolver(Scene&&, Execution&) = delete;  // keeps a reference to the scene
-    std::string name() const override { return "pgs"; }
+    // adaptive: the adaptive solver (active sweeps after solver.adaptive_sweeps
+    // sweeps of every cell, active_sweeps.cpp), else `iterations` sweeps.
+    ContactSolver(const Scene& scene, Execution& exec, bool adaptive = false);
+    ContactSolver(Scene&&, Execution&, bool = false) = delete;  // keeps a reference to the scene
+    std::string name() const override { return adaptive_ ? "adaptive" : "pgs"; }
     bool uses_contact_joints() const override { return false; }
     void step(World& world, const ContactBuffer& contacts) override;
     std::vector<WarmImpulse>* warm_impulses() override { return &previous_; }
     void set_exchange(CorrectionExchange* exchange) override { exchange_ = exchange; }
     const Substages* substages() const override { return &times_; }
     const ColourTimes* colour_times() const override { return &colour_times_; }
+    const ActiveWork* active_work() const override { return adaptive_ ? &active_work_ : nullptr; }
     bool wrote_finite_state() const override { return finite_; }
     double max_speed_written() const override { return max_speed_; }
 
@@ -122,6 +128,7 @@ protected:
     // Relaxes (or, with `warm`, applies the warm-start impulses of) cells
     // [t0, t1) of one colour.
     void relax_cells(std::size_t t0, std::size_t t1);
+    void relax_pack(SphereRow* const* pack, int held, double* change);
     static constexpr int kMostStreams = 8;
     void relax_rounds(const std::size_t* at, int streams, std::size_t rounds);
     void relax_round(std::size_t* at, const std::size_t* end, int streams);
@@ -130,6 +137,19 @@ protected:
     // `passes` sweeps over the colours; after each colour, exchange_after.
     // omp/ overrides this with its threaded sweep.
     virtual void sweep(int passes, bool warm);
+    // One sweep of the cells listed in active_ (active_sweeps.cpp), colour by
+    // colour, each class of a colour (boundary cells, then interior ones)
+    // through relax_listed; omp/ overrides it with its threads.
+    virtual void list_sweep();
+    // Entries [a0, a1) of the listed cells, as relax_cells relaxes a range,
+    // each cell's largest change kept in cell_change_.
+    void relax_listed(std::size_t a0, std::size_t a1);
+    bool adaptive() const { return adaptive_; }
+    // The listed cells of class k (colour c: 2c its boundary cells, 2c + 1
+    // its interior ones): entries [listed_begin(k), listed_begin(k + 1)); the
+    // contacts of entries [0, a): listed_contacts(a).
+    std::size_t listed_begin(int k) const { return listed_start_[static_cast<std::size_t>(k)]; }
+    std::size_t listed_contacts(std::size_t a) const { return listed_pos_[a]; }
     const SweepLayout& layout() const { return layout_; }
     int iterations() const { return scene_.solver.iterations; }
     int substeps() const { return substeps_; }
@@ -168,6 +188,12 @@ private:
     void prefetch_row(std::size_t p) const;
     void build_row(std::size_t k);
     void plan_exchange();
+    // The sweeps of a step or substep: `iterations`, or the adaptive solver's.
+    void iterate();
+    void active_sweeps();
+    // Lists every cell (all) or those whose change passed the tolerance;
+    // whether any process listed one.
+    bool list_cells(bool all);
     bool integrate_body(World& world, std::size_t i, double& max_speed);
     void integrate_phase(World& world);
     // Substeps (substeps.cpp): every local body's velocity and displacement
@@ -233,6 +259,12 @@ private:
     ColourTimes colour_times_;
     bool finite_ = false;  // every owned body's new state was finite
     double max_speed_ = -1.0;  // the largest linear speed integrate wrote
+    const bool adaptive_;
+    std::vector<double> cell_change_;           // per cell of the layout: its last sweep's largest change
+    std::vector<std::uint32_t> listed_;         // cells to sweep, class by class, in layout order
+    std::array<std::size_t, 2 * kColours + 1> listed_start_{};
+    std::vector<std::size_t> listed_pos_;       // contacts of listed_[0, a), per a (size + 1)
+    ActiveWork active_work_;
 };
 
 }  // namespace parode

@@ -97,6 +97,13 @@ void add_reference_solvers(SolverRegistry& r) {
               return std::make_unique<ContactSolver>(s, e);
           },
           {}, "parode's contact solver (cells, colours, warm start), serial");
+    r.add("adaptive",
+          [](const Scene& s, Execution& e) -> std::unique_ptr<SolverBackend> {
+              const std::string no = contact_solver_unsupported(s);
+              if (!no.empty()) return make_ode_solver(s, "adaptive not used: " + no);
+              return std::make_unique<ContactSolver>(s, e, true);
+          },
+          {}, "pgs whose last sweeps take only the cells still changing by more than solver.tolerance, serial");
 }
 
 }  // namespace parode

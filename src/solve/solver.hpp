@@ -10,6 +10,7 @@
 // no auto-disable); other scenes stay on ODE's stepper and the report says why.
 #pragma once
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -34,6 +35,14 @@ struct ColourTimes {
     std::array<double, 8> compute{}, wait{};
 };
 
+// The adaptive contact solver's active sweeps so far (solve/active_sweeps.cpp):
+// the steps (substeps) that ran them, the sweeps over listed cells (the last
+// sweep of every cell included), the contacts those relaxed, and every
+// contact of those steps.
+struct ActiveWork {
+    std::int64_t steps = 0, sweeps = 0, relaxed = 0, contacts = 0;
+};
+
 class SolverBackend {
 public:
     virtual ~SolverBackend() = default;
@@ -53,6 +62,8 @@ public:
     // Per colour of parode's contact solver, its compute and wait seconds so
     // far (contact_solver.hpp), or null.
     virtual const ColourTimes* colour_times() const { return nullptr; }
+    // The adaptive solver's active sweeps so far, or null.
+    virtual const ActiveWork* active_work() const { return nullptr; }
     // True when the last step wrote every owned body's state and found it
     // finite as it did (the guard then skips its own scan).
     virtual bool wrote_finite_state() const { return false; }
