@@ -26,14 +26,14 @@ struct Verdict {
 
 // Runs a hard case for its own simulated duration (scene.steps x scene.dt),
 // whatever dt the overrides set, as jobs/stability_map.py does.
-Verdict run_case(const std::string& name, const std::vector<std::string>& sets = {}) {
+Verdict run_case(const std::string& name, const std::vector<std::string>& sets = {}, const std::string& solver = "") {
     const std::string file = "jobs/scenes/hard/" + name + ".toml";
     const Scene base = test::repo_scene(file);
     const Scene sc = test::repo_scene(file, sets);
     const int steps = static_cast<int>(std::llround(base.steps * base.dt / sc.dt));
     Verdict v;
     try {
-        auto p = test::run(sc, steps);
+        auto p = solver.empty() ? test::run(sc, steps) : test::run(sc, steps, "grid", 1, solver);
         const nlohmann::json r = p->checks_result();
         v.passed = r.at("passed").get<bool>();
         v.why = r.dump();
@@ -79,6 +79,27 @@ TEST(Stability, BuggyFailsAtEightTimesItsDt) { expect_fail("buggy-fast", {"scene
 
 TEST(Stability, PileRestsTenSecondsAndSleeps) { expect_pass("resting-pile"); }
 TEST(Stability, RestingPileNeverSleepsWithFiveIterations) { expect_fail("resting-pile", {"solver.iterations=5"}); }
+
+// The adaptive solver passes every hard case parode's contact solver runs,
+// with its own defaults (8 sweeps of every cell, whatever iterations the
+// scene gives QuickStep); without its sweeps of the cells still changing
+// (solver.extra_sweeps = 0: 8 sweeps) the fast catom goes through the base.
+class AdaptiveStability : public ::testing::TestWithParam<const char*> {};
+TEST_P(AdaptiveStability, PassesItsChecks) {
+    const Verdict v = run_case(GetParam(), {}, "adaptive/omp");
+    EXPECT_TRUE(v.passed) << GetParam() << ": " << v.why;
+}
+INSTANTIATE_TEST_SUITE_P(HardCases, AdaptiveStability,
+                         ::testing::Values("column", "pyramid", "mass-ratio", "fast-catom", "overlap", "magnetic-lattice"),
+                         [](const ::testing::TestParamInfo<const char*>& p) {
+                             std::string n = p.param;
+                             for (char& ch : n) ch = ch == '-' ? '_' : ch;
+                             return n;
+                         });
+TEST(Stability, FastCatomTunnelsWithoutTheAdaptiveSolversExtraSweeps) {
+    const Verdict v = run_case("fast-catom", {"solver.extra_sweeps=0"}, "adaptive/omp");
+    EXPECT_FALSE(v.passed) << v.why;
+}
 
 // A non-finite velocity stops the run at the next step, naming the body, and
 // the last good state (step 0) is written out. (Bodies out of contact: ODE
