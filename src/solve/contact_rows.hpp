@@ -253,11 +253,7 @@ template <class V, class T>
 PARODE_LANE_INLINE V block_at(const T* rec, std::size_t at) {
     return *reinterpret_cast<const Unaligned<V>*>(reinterpret_cast<const char*>(rec) + at);
 }
-template <class V, class T>
-PARODE_LANE_INLINE void load_blocks(const T* const* rec, std::size_t at, V* out) {
-    const V in[4] = {block_at<V>(rec[0], at), block_at<V>(rec[1], at), block_at<V>(rec[2], at), block_at<V>(rec[3], at)};
-    transpose4(in, out);
-}
+
 template <class V, class T>
 PARODE_LANE_INLINE void store_block(T* rec, std::size_t at, const V& v) {
     *reinterpret_cast<Unaligned<V>*>(reinterpret_cast<char*>(rec) + at) = v;
@@ -295,11 +291,19 @@ PARODE_LANE_INLINE void untranspose8(const V* v, Quad* a) {
         a[i + 4] = __builtin_shufflevector(o[i], o[i], 4, 5, 6, 7);
     }
 }
+// Block `at` of each of lanes<V>() (four or eight) records, as four vectors
+// of lanes; and four vectors of lanes as each lane's block (to_blocks).
 template <class V, class T>
-PARODE_LANE_INLINE void load_blocks8(const T* const* rec, std::size_t at, V* out) {
-    Quad in[8];
-    for (int l = 0; l < 8; ++l) in[l] = block_at<Quad>(rec[l], at);
-    transpose8(in, out);
+PARODE_LANE_INLINE void load_blocks(const T* const* rec, std::size_t at, V* out) {
+    Quad in[lanes<V>()];
+    for (int l = 0; l < lanes<V>(); ++l) in[l] = block_at<Quad>(rec[l], at);
+    if constexpr (lanes<V>() == 8) transpose8(in, out);
+    else transpose4(in, out);
+}
+template <class V>
+PARODE_LANE_INLINE void to_blocks(const V* in, Quad* out) {
+    if constexpr (lanes<V>() == 8) untranspose8(in, out);
+    else transpose4(in, out);
 }
 // Square root lane by lane; SSE2 square roots on x86-64 (IEEE square
 // roots are correctly rounded: the same bits as std::sqrt, without its errno
@@ -363,10 +367,10 @@ PARODE_LANE_INLINE void tangent_frame(const V* n, V k, V* t1, V* t2) {
     t2[2] = yz ? n[0] * t1[1] : a * k;
 }
 
-// Four bodies' rows (fc[0..3] | fc[4], fc[5], invm, invi) read as two
-// blocks each and transposed into lanes.
+// Four or eight bodies' rows (fc[0..3] | fc[4], fc[5], invm, invi) read as
+// two blocks each and transposed into lanes.
 template <class V>
-PARODE_LANE_INLINE void load_lanes4(const BodyRow* const* B, V* f, V& invm, V& invi) {
+PARODE_LANE_INLINE void load_lanes(const BodyRow* const* B, V* f, V& invm, V& invi) {
     V b[4];
     detail::load_blocks(B, 0, f);
     detail::load_blocks(B, 4 * sizeof(double), b);
@@ -378,45 +382,22 @@ PARODE_LANE_INLINE void store_body4(BodyRow& B, const V& lo, const V& hi) {
     detail::store_block(&B, 0, lo);
     detail::store_block(&B, sizeof(V), hi);
 }
-// What four lanes write back: each row's lambda (with its mu, unchanged) as
-// one block, each body's row as two (a static partner's not at all).
+// What four or eight lanes write back: each row's lambda (with its mu,
+// unchanged) as one block, each body's row as two (a static partner's not at
+// all).
 template <class V>
-PARODE_LANE_INLINE void store_lanes4(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
-                                     V i1, const V* f2, V m2, V i2) {
-    const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
-    V out[4], lo1[4], hi1[4], lo2[4], hi2[4];
-    detail::transpose4(rows, out);
-    detail::transpose4(f1, lo1);
-    detail::transpose4(h1, hi1);
-    detail::transpose4(f2, lo2);
-    detail::transpose4(h2, hi2);
-    for (int l = 0; l < 4; ++l) {
-        detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
-        store_body4(bodies[K[l]->b1], lo1[l], hi1[l]);
-        if (K[l]->b2 >= 0) store_body4(bodies[K[l]->b2], lo2[l], hi2[l]);
-    }
-}
-
-// The same for eight bodies' rows and eight lanes (relax_eight).
-template <class V>
-PARODE_LANE_INLINE void load_lanes8(const BodyRow* const* B, V* f, V& invm, V& invi) {
-    V b[4];
-    detail::load_blocks8(B, 0, f);
-    detail::load_blocks8(B, 4 * sizeof(double), b);
-    f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
-}
-template <class V>
-PARODE_LANE_INLINE void store_lanes8(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
-                                     V i1, const V* f2, V m2, V i2) {
+PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
+                                    V i1, const V* f2, V m2, V i2) {
     using detail::Quad;
+    constexpr int L = detail::lanes<V>();
     const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
-    Quad out[8], lo1[8], hi1[8], lo2[8], hi2[8];
-    detail::untranspose8(rows, out);
-    detail::untranspose8(f1, lo1);
-    detail::untranspose8(h1, hi1);
-    detail::untranspose8(f2, lo2);
-    detail::untranspose8(h2, hi2);
-    for (int l = 0; l < 8; ++l) {
+    Quad out[L], lo1[L], hi1[L], lo2[L], hi2[L];
+    detail::to_blocks(rows, out);
+    detail::to_blocks(f1, lo1);
+    detail::to_blocks(h1, hi1);
+    detail::to_blocks(f2, lo2);
+    detail::to_blocks(h2, hi2);
+    for (int l = 0; l < L; ++l) {
         detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
         store_body4(bodies[K[l]->b1], lo1[l], hi1[l]);
         if (K[l]->b2 >= 0) store_body4(bodies[K[l]->b2], lo2[l], hi2[l]);
@@ -449,21 +430,9 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
     V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu, ad_n, ad_t, kt;
-    if constexpr (L == 8) {
-        load_lanes8(B1, f1, m1, i1);
-        load_lanes8(B2, f2, m2, i2);
-        V b[4];
-        load_blocks8(K, offsetof(SphereRow, n), b);
-        n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
-        load_blocks8(K, offsetof(SphereRow, r2), b);
-        r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
-        load_blocks8(K, offsetof(SphereRow, lambda), b);
-        lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
-        load_blocks8(K, offsetof(SphereRow, ad_n), b);
-        ad_n = b[0], ad_t = b[1], kt = b[2];  // b[3]: the slots' bits, unused
-    } else if constexpr (L == 4) {
-        load_lanes4(B1, f1, m1, i1);
-        load_lanes4(B2, f2, m2, i2);
+    if constexpr (L == 4 || L == 8) {
+        load_lanes(B1, f1, m1, i1);
+        load_lanes(B2, f2, m2, i2);
         V b[4];
         load_blocks(K, offsetof(SphereRow, n), b);
         n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
@@ -531,11 +500,8 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         f2[i] -= m2 * dl[i];
         f2[3 + i] += k2 * da[i];
     }
-    if constexpr (L == 8) {
-        store_lanes8(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
-        return;
-    } else if constexpr (L == 4) {
-        store_lanes4(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
+    if constexpr (L == 4 || L == 8) {
+        store_lanes(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
         return;
     }
     for (int l = 0; l < L; ++l) {

@@ -51,6 +51,17 @@ protected:
     }
     nlohmann::json report(const std::string& name) const { return parode::test::read_json(dir_ / name); }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
+    // `parode ARGS` on each ranks x threads of `layouts` gives `ref`'s state
+    // hash (its reports named TAG RxT.json).
+    void expect_ref_hash(const std::string& args, const nlohmann::json& ref, const std::vector<std::pair<int, int>>& layouts,
+                         const std::string& tag) const {
+        for (const auto& [ranks, threads] : layouts) {
+            const std::string name = tag + std::to_string(ranks) + "x" + std::to_string(threads) + ".json";
+            const Result r = run(ranks, args + " --threads " + std::to_string(threads) + " --report " + path(name));
+            ASSERT_EQ(r.rc, 0) << r.err;
+            EXPECT_EQ(report(name)["state_hash"], ref["state_hash"]) << ranks << " ranks x " << threads << " threads";
+        }
+    }
 };
 
 struct Case {
