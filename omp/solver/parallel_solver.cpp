@@ -211,20 +211,23 @@ void ParallelContactSolver::list_sweep() {
     {
         const auto me = static_cast<std::size_t>(thread_index()), n = static_cast<std::size_t>(t);
         for (int c = 0; c < kColours && !failed; ++c) {
+            if (!exchanging()) {  // both classes at once
+                relax_listed_share(listed_begin(2 * c), listed_begin(2 * c + 2), me, n);
+#pragma omp barrier
+                continue;
+            }
             relax_listed_share(listed_begin(2 * c), listed_begin(2 * c + 1), me, n);
 #pragma omp barrier
 #pragma omp master
-            if (exchanging()) {
-                try {
-                    post_after_boundary(c);
-                } catch (...) {  // an exception may not leave a parallel region
-                    failed = std::current_exception();
-                }
+            try {
+                post_after_boundary(c);
+            } catch (...) {  // an exception may not leave a parallel region
+                failed = std::current_exception();
             }
             relax_listed_share(listed_begin(2 * c + 1), listed_begin(2 * c + 2), me, n);
 #pragma omp barrier
 #pragma omp master
-            if (exchanging() && !failed) {
+            if (!failed) {
                 try {
                     complete_after_interior(c);
                 } catch (...) {
