@@ -19,13 +19,20 @@ TEST_P(Ranks, SameStateHashAsOneProcess) {
 
 INSTANTIATE_TEST_SUITE_P(Classic, Ranks, ::testing::Values("tennis", "magnetic-tennis"));
 
+// The solver tests' run: 2,000 tennis catoms over 150 steps on `solver`,
+// repartitioned whenever the balance drifts 2 % (checked every 5 steps), so
+// bodies migrate between the processes.
+std::string migrating_prism(const std::string& solver) {
+    return " run " + kSource + "/jobs/scenes/tennis.toml --steps 150 --collide grid --solver " + solver +
+           " -q --check-invariants 1 --set catoms.count=2000"
+           " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
+}
+
 // The solver's substeps advance ghosts as their owners advance them: the same
 // state hash for 1 and 2 threads and 2 and 3 processes, and not the hash
 // without substeps (the setting took effect).
 TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
-    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --steps 150 --collide grid"
-                               " --solver parallel -q --check-invariants 1 --set catoms.count=2000"
-                               " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
+    const std::string common = migrating_prism("parallel");
     const std::string sub = common + " --set solver.substeps=4 --set solver.iterations=3";
     ASSERT_EQ(run(0, common + " --threads 1 --report " + path("plain.json")).rc, 0);
     ASSERT_EQ(run(0, sub + " --threads 1 --report " + path("ref.json")).rc, 0);
@@ -40,10 +47,7 @@ TEST_F(Mpi, SubstepsSameStateHashOnAnyRanksAndThreads) {
 // with migrations and repartitions, and not the hash of its fixed sweeps
 // alone (the listed sweeps ran).
 TEST_F(Mpi, AdaptiveSolverSameStateHashOnAnyRanksAndThreads) {
-    const std::string common = " run " + kSource + "/jobs/scenes/tennis.toml --steps 150 --collide grid"
-                               " -q --check-invariants 1 --set catoms.count=2000"
-                               " --set parallel.rebalance_threshold=1.02 --set parallel.rebalance_every=5";
-    const std::string adaptive = common + " --solver adaptive/omp";
+    const std::string adaptive = migrating_prism("adaptive/omp");
     ASSERT_EQ(run(0, adaptive + " --set solver.tolerance=1e9 --threads 1 --report " + path("fixed.json")).rc, 0);
     ASSERT_EQ(run(0, adaptive + " --threads 1 --report " + path("ref.json")).rc, 0);
     const nlohmann::json ref = report("ref.json");

@@ -68,10 +68,14 @@ TEST(AdaptiveSolver, ThreadsGiveTheSerialBits) {
     }
 }
 
+// The adaptive solver's sweeps of every cell alone: `parallel` on 2 threads
+// with the tennis scene's adaptive_sweeps as its iterations.
+SceneRun fixed_sweeps(int steps) {
+    return run_scene("tennis", steps, "parallel", 2, test::repo_scene("jobs/scenes/tennis.toml").solver.adaptive_sweeps);
+}
+
 TEST(AdaptiveSolver, UnreachedToleranceIsPgsWithItsSweeps) {
-    SceneRun fixed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
-    fixed.scene->solver.iterations = fixed.scene->solver.adaptive_sweeps;
-    fixed.p = run_with(*fixed.scene, 200, "parallel", 2);
+    const SceneRun fixed = fixed_sweeps(200);
     SceneRun listed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
     listed.scene->solver.tolerance = 1e9;
     listed.p = run_with(*listed.scene, 200, "adaptive/omp", 2);
@@ -84,9 +88,7 @@ TEST(AdaptiveSolver, UnreachedToleranceIsPgsWithItsSweeps) {
 
 TEST(AdaptiveSolver, SweepsChangingCellsAgainAndEndsNearerTheReference) {
     const SceneRun ref = run_scene("tennis", 50, "ode", 1, 200);
-    SceneRun fixed{std::make_unique<Scene>(test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=1000"})), nullptr};
-    fixed.scene->solver.iterations = fixed.scene->solver.adaptive_sweeps;
-    fixed.p = run_with(*fixed.scene, 50, "parallel", 2);
+    const SceneRun fixed = fixed_sweeps(50);
     const SceneRun adaptive = run_scene("tennis", 50, "adaptive/omp", 2, 20);
     const ActiveWork* a = adaptive.p->solver().active_work();
     ASSERT_NE(a, nullptr);
@@ -124,9 +126,8 @@ TEST_P(AgainstReference, ParallelErrorNoWorseThanQuickStepAtSameIterations) {
 INSTANTIATE_TEST_SUITE_P(Scenes, AgainstReference,
                          ::testing::Values(Accuracy{"tennis", 50}, Accuracy{"magnetic-tennis", 300}),
                          [](const ::testing::TestParamInfo<Accuracy>& p) {
-                             std::string n = std::string(p.param.scene) + "_" + std::to_string(p.param.steps) + "_steps";
-                             for (char& ch : n) ch = ch == '-' ? '_' : ch;
-                             return n;
+                             return test::param_name(std::string(p.param.scene) + "_" + std::to_string(p.param.steps) +
+                                                     "_steps");
                          });
 
 TEST(ContactSolver, MagneticPrismSettlesWithLessResidualMotionThanQuickStep) {
@@ -188,13 +189,8 @@ TEST_P(HardCase, ParallelSolverPassesAndPenetratesNoMoreThanQuickStep) {
     EXPECT_LE(par->totals().mean_penetration(), 1.01 * quick->totals().mean_penetration());
 }
 
-INSTANTIATE_TEST_SUITE_P(Hard, HardCase,
-                         ::testing::Values("column", "pyramid", "mass-ratio", "fast-catom", "overlap", "magnetic-lattice"),
-                         [](const ::testing::TestParamInfo<const char*>& p) {
-                             std::string n = p.param;
-                             for (char& ch : n) ch = ch == '-' ? '_' : ch;
-                             return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(Hard, HardCase, ::testing::ValuesIn(test::kContactHardCases),
+                         [](const ::testing::TestParamInfo<const char*>& p) { return test::param_name(p.param); });
 
 }  // namespace
 

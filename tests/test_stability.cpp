@@ -89,13 +89,8 @@ TEST_P(AdaptiveStability, PassesItsChecks) {
     const Verdict v = run_case(GetParam(), {}, "adaptive/omp");
     EXPECT_TRUE(v.passed) << GetParam() << ": " << v.why;
 }
-INSTANTIATE_TEST_SUITE_P(HardCases, AdaptiveStability,
-                         ::testing::Values("column", "pyramid", "mass-ratio", "fast-catom", "overlap", "magnetic-lattice"),
-                         [](const ::testing::TestParamInfo<const char*>& p) {
-                             std::string n = p.param;
-                             for (char& ch : n) ch = ch == '-' ? '_' : ch;
-                             return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(HardCases, AdaptiveStability, ::testing::ValuesIn(test::kContactHardCases),
+                         [](const ::testing::TestParamInfo<const char*>& p) { return test::param_name(p.param); });
 TEST(Stability, FastCatomTunnelsWithoutTheAdaptiveSolversExtraSweeps) {
     const Verdict v = run_case("fast-catom", {"solver.extra_sweeps=0"}, "adaptive/omp");
     EXPECT_FALSE(v.passed) << v.why;

@@ -243,14 +243,7 @@ void ParallelContactSolver::list_sweep() {
 void ParallelContactSolver::relax_listed_share(std::size_t a0, std::size_t a1, std::size_t me, std::size_t team) {
     const std::size_t c0 = listed_contacts(a0), c1 = listed_contacts(a1);
     const auto first = [&](std::size_t j) {  // the first entry at or after share j's start
-        const std::size_t target = c0 + (c1 - c0) * j / team;
-        std::size_t lo = a0, hi = a1;
-        while (lo < hi) {
-            const std::size_t mid = (lo + hi) / 2;
-            if (listed_contacts(mid) < target) lo = mid + 1;
-            else hi = mid;
-        }
-        return lo;
+        return listed_entry_at(a0, a1, c0 + (c1 - c0) * j / team);
     };
     relax_listed(me == 0 ? a0 : first(me), me + 1 == team ? a1 : first(me + 1));
 }

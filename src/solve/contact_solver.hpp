@@ -27,6 +27,7 @@
 // dt, become the same spring and damper at dt / S (substep_softness).
 // No damping, no auto-disable: such scenes stay on ODE's stepper (solver.cpp).
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -150,6 +151,13 @@ protected:
     // contacts of entries [0, a): listed_contacts(a).
     std::size_t listed_begin(int k) const { return listed_start_[static_cast<std::size_t>(k)]; }
     std::size_t listed_contacts(std::size_t a) const { return listed_pos_[a]; }
+    // The first entry of [a0, a1) whose contacts before it are at least
+    // `contacts`, or a1.
+    std::size_t listed_entry_at(std::size_t a0, std::size_t a1, std::size_t contacts) const {
+        const auto b = listed_pos_.begin();
+        return static_cast<std::size_t>(std::lower_bound(b + static_cast<std::ptrdiff_t>(a0),
+                                                         b + static_cast<std::ptrdiff_t>(a1), contacts) - b);
+    }
     const SweepLayout& layout() const { return layout_; }
     int iterations() const { return scene_.solver.iterations; }
     int substeps() const { return substeps_; }

@@ -39,4 +39,9 @@ Vec3 velocity(const Pipeline& p, std::size_t body) {
     return {v[0], v[1], v[2]};
 }
 
+std::string param_name(std::string name) {
+    for (char& ch : name) ch = ch == '-' ? '_' : ch;
+    return name;
+}
+
 }  // namespace parode::test

@@ -22,5 +22,12 @@ std::unique_ptr<Pipeline> run(const Scene& scene, int steps, const std::string& 
 std::uint64_t hash_after(const Scene& scene, int steps, const std::string& collide = "ode-hash", int threads = 1);
 Vec3 position(const Pipeline& p, std::size_t body);
 Vec3 velocity(const Pipeline& p, std::size_t body);
+// A gtest parameter's name made of a scene's (which may hold '-', gtest's
+// names may not).
+std::string param_name(std::string name);
+// The hard cases (jobs/scenes/hard/) that parode's contact solvers run, for
+// the tests every such solver passes.
+inline constexpr const char* kContactHardCases[] = {"column",  "pyramid", "mass-ratio",
+                                                    "fast-catom", "overlap", "magnetic-lattice"};
 
 }  // namespace parode::test
