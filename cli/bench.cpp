@@ -8,7 +8,6 @@
 // ratios against the first variant, and whether all contact sets were identical.
 // Trade-off: one World per variant costs memory, but every backend then sees
 // exactly the same geoms in the space kind it wants.
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <array>
@@ -22,6 +21,7 @@
 #include "util/errors.hpp"
 #include "util/hash.hpp"
 #include "util/median.hpp"
+#include "util/peak_memory.hpp"
 #include "run/pipeline.hpp"
 #include "run/stages.hpp"
 #include "scene/scene_file.hpp"
@@ -41,11 +41,7 @@ struct Variant {
     ContactBuffer out;  // kept between calls, as a run keeps its step's buffer
 };
 
-double peak_rss_mb() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return static_cast<double>(u.ru_maxrss) / 1024.0;
-}
+double peak_rss_mb() { return static_cast<double>(peak_rss_bytes()) / (1024.0 * 1024.0); }
 
 Variant make_variant(const Scene& scene, const std::string& spec) {
     Variant v;

@@ -183,6 +183,35 @@ TEST_F(Cli, HugePagesSwitch) {
     EXPECT_NE(bad.err.find("PARODE_HUGE_PAGES=yes: expected 0"), std::string::npos) << bad.err;
 }
 
+// The report's peak memory in parts (memory.peak_by_stage): the set-up's
+// peak and what each stage added to it over the steps sum to the peak; the
+// solve's part is its rows and scratch, which grow with the catoms (twice
+// the catoms, at least 1.5 times its part; huge pages off, whose
+// availability moves a peak by 2 MB).
+TEST_F(Cli, PeakMemoryInPartsByStage) {
+    std::int64_t solve[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+        const fs::path path = dir_ / "peak.json";
+        const Result r = parode("run '" + kTennis + "' --set catoms.count=" + std::to_string(20000 << k) +
+                                    " --steps 2 --threads 1 -q --collide grid --solver parallel --report '" +
+                                    path.string() + "'",
+                                "PARODE_HUGE_PAGES=0 ");
+        ASSERT_EQ(r.rc, 0) << r.err;
+        const nlohmann::json m = parode::test::read_json(path).at("memory");
+        const auto& parts = m.at("peak_by_stage");
+        std::int64_t sum = 0;
+        for (const auto& [name, v] : parts.items()) {
+            EXPECT_GE(v.get<std::int64_t>(), 0) << name;
+            sum += v.get<std::int64_t>();
+        }
+        EXPECT_EQ(sum, m.at("peak_rss_bytes").at("max").get<std::int64_t>()) << parts;
+        for (const char* s : {"setup", "solve", "collide", "other"}) EXPECT_TRUE(parts.contains(s)) << s;
+        solve[k] = parts.at("solve").get<std::int64_t>();
+    }
+    EXPECT_GT(solve[0], 1 << 20) << "the first step's rows";
+    EXPECT_GE(static_cast<double>(solve[1]), 1.5 * static_cast<double>(solve[0]));
+}
+
 TEST_F(Cli, StagesRunFollowTheScene) {
     const nlohmann::json plain = report(kTennis);
     EXPECT_EQ(plain.at("stages_run").at("forces").at("ran"), false);

@@ -206,6 +206,9 @@ std::vector<double> MpiMemory::bytes_per_held_body(const std::string& extra) con
         const double owned = fullest["owned"].get<double>(), held = owned + fullest["ghosts"].get<double>();
         EXPECT_NEAR(owned, 50000.0, 0.05 * 50000.0) << "the partition's balance: " << ranks << " ranks";
         EXPECT_NEAR(held / owned - 1.0, j["parallel"]["ghost_fraction"].get<double>(), 0.1) << ranks << " ranks";
+        std::int64_t parts = 0;  // the fullest rank's peak in parts (memory.peak_by_stage)
+        for (const auto& part : j["memory"]["peak_by_stage"]) parts += part.get<std::int64_t>();
+        EXPECT_EQ(parts, j["memory"]["peak_rss_bytes"]["max"].get<std::int64_t>()) << ranks << " ranks";
         per_body.push_back(j["memory"]["peak_rss_bytes"]["max"].get<double>() / held);
     }
     return per_body;

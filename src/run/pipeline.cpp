@@ -9,6 +9,7 @@
 #include "run/stages.hpp"
 #include "util/hash.hpp"
 #include "util/heap_policy.hpp"
+#include "util/peak_memory.hpp"
 
 namespace parode {
 
@@ -79,6 +80,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
         snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, collectives(), steps_, steps_ * scene.dt,
                                          planned_frames(options));
     });
+    setup_peak_ = peak_rss_bytes();  // the set-up's stages count here, not in their steps' shares
+    for (StageState& st : stages_) st.peak_growth = 0;
 }
 
 // The passes the scene needs, in order: the catom program (it switches
@@ -230,8 +233,10 @@ void Pipeline::timed(Stage s, F&& f) {
     StageState& st = stages_[static_cast<int>(s)];
     if (!st.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
+    const std::int64_t peak0 = peak_rss_bytes();
     f();
     st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.peak_growth += peak_rss_bytes() - peak0;
 }
 
 void Pipeline::step() {

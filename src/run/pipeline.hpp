@@ -43,6 +43,7 @@ struct StageState {
     bool enabled = false;
     std::string reason;
     double seconds = 0;
+    std::int64_t peak_growth = 0;  // bytes the process's peak memory rose by while the stage ran (steps only)
 };
 
 struct RunOptions {
@@ -116,6 +117,9 @@ public:
     // step solved its contacts (that collision is then part of the steps'
     // work, not of the set-up); else 0.
     double collide_before_steps() const { return collide_reused_ ? setup_collide_s_ : 0.0; }
+    // The process's peak memory when the set-up was done (bytes); what each
+    // stage added to it since is StageState::peak_growth.
+    std::int64_t setup_peak() const { return setup_peak_; }
     // The substage timers of a stage's backend (collide, solve), or null.
     const Substages* substages(Stage s) const;
     // The first step of this run alone (its collision included where it ran
@@ -182,6 +186,7 @@ private:
     nlohmann::json restart_meta_;
     std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
     double setup_collide_s_ = 0;          // the collision run by the constructor
+    std::int64_t setup_peak_ = 0;         // peak memory at the end of the constructor
     bool collide_reused_ = false;         // the first step solved those contacts
     StepTimes first_times_;
     void record_first_step(double wall);

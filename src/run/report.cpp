@@ -1,15 +1,15 @@
 // Run report (see report.hpp).
 #include "run/report.hpp"
 
-#include <sys/resource.h>
-
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
 
 #include "util/errors.hpp"
 #include "util/hash.hpp"
+#include "util/peak_memory.hpp"
 
 #ifndef PARODE_ODE_VERSION
 #define PARODE_ODE_VERSION "unknown"
@@ -60,13 +60,6 @@ nlohmann::json diagnostics_json(const Diagnostics& d, const RunTotals& t) {
 
 namespace {
 
-// Peak resident memory of this process so far (bytes; Linux reports KiB).
-double peak_rss_bytes() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return static_cast<double>(u.ru_maxrss) * 1024.0;
-}
-
 // Collective: {min, avg, max} of a per-process value over the processes.
 nlohmann::json spread(const Collectives& domain, double v) {
     ExactSum total;
@@ -75,10 +68,14 @@ nlohmann::json spread(const Collectives& domain, double v) {
     return {{"min", domain.min(v)}, {"avg", total.value() / domain.ranks()}, {"max", domain.max(v)}};
 }
 
-// The process whose peak memory is `top`, the largest (the lowest rank of
-// equals), with the bodies it held at the end: owned and ghosts.
-nlohmann::json fullest_rank(const Collectives& domain, const World& world, double rss, double top) {
-    const int rank = static_cast<int>(domain.min(rss == top ? domain.rank() : domain.ranks()));
+// The process whose peak memory is `top`, the largest: the lowest rank of
+// equals (collective).
+int fullest_of(const Collectives& domain, double rss, double top) {
+    return static_cast<int>(domain.min(rss == top ? domain.rank() : domain.ranks()));
+}
+
+// The fullest process (`rank`) with the bodies it held at the end: owned and ghosts.
+nlohmann::json fullest_rank(const Collectives& domain, const World& world, int rank) {
     std::int64_t held[2] = {0, 0};
     if (domain.rank() == rank) {
         held[0] = static_cast<std::int64_t>(world.owned_count());
@@ -86,6 +83,27 @@ nlohmann::json fullest_rank(const Collectives& domain, const World& world, doubl
     }
     domain.sum(held, 2);
     return {{"rank", rank}, {"owned", held[0]}, {"ghosts", held[1]}};
+}
+
+// What the fullest process's peak memory (`top`, bytes) is made of: the
+// set-up's peak, what each stage added to it over the steps, and `other`,
+// what came between and after them (a checkpoint written at the end); the
+// parts sum to `top`. Collective.
+nlohmann::json peak_parts_json(const Collectives& domain, const Pipeline& p, int rank, double top) {
+    std::array<std::int64_t, kStageCount + 1> part{};
+    if (domain.rank() == rank) {
+        part[0] = p.setup_peak();
+        for (int s = 0; s < kStageCount; ++s) part[static_cast<std::size_t>(s) + 1] = p.stage(static_cast<Stage>(s)).peak_growth;
+    }
+    domain.sum(part.data(), static_cast<int>(part.size()));
+    nlohmann::json j = {{"setup", part[0]}};
+    std::int64_t sum = part[0];
+    for (int s = 0; s < kStageCount; ++s) {
+        j[stage_name(static_cast<Stage>(s))] = part[static_cast<std::size_t>(s) + 1];
+        sum += part[static_cast<std::size_t>(s) + 1];
+    }
+    j["other"] = static_cast<std::int64_t>(top) - sum;
+    return j;
 }
 
 // Seconds the solver spent exchanging corrections between colours (part of
@@ -189,6 +207,24 @@ nlohmann::json first_step_json(const Collectives& domain, const Pipeline& p) {
     return {{"wall_s", domain.max(t.wall)}, {"stages", stages}, {"substages", substages_json(domain, of)}};
 }
 
+// The peak memory line: the fullest process's peak and its parts of 0.1 MiB
+// or more (memory.peak_by_stage), in MiB.
+void print_peak_parts(std::ostream& os, const nlohmann::json& m) {
+    constexpr double kMiB = 1024.0 * 1024.0;
+    os << std::setprecision(1) << "  peak memory " << m["peak_rss_bytes"]["max"].get<double>() / kMiB << " MiB";
+    std::vector<std::string> names{"setup"};
+    for (int s = 0; s < kStageCount; ++s) names.emplace_back(stage_name(static_cast<Stage>(s)));
+    names.emplace_back("other");
+    const char* sep = ": ";
+    for (const std::string& name : names) {
+        const double v = m["peak_by_stage"][name].get<double>();
+        if (v < 0.1 * kMiB) continue;
+        os << sep << name << " " << v / kMiB;
+        sep = ", ";
+    }
+    os << (m.contains("fullest") ? " (the fullest rank)\n" : "\n");
+}
+
 // The summary lines of a stage's substages, indented under it.
 void print_substages(std::ostream& os, const nlohmann::json& r, Stage stage, double wall) {
     const char* name = stage_name(stage);
@@ -216,7 +252,7 @@ nlohmann::json backends_json(const Pipeline& p) {
 
 nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo& info) {
     const Collectives& domain = p.collectives();
-    const double rss = peak_rss_bytes();  // the run's, before the report's own arrays (programs' values: 9 MB at 10^5)
+    const double rss = static_cast<double>(peak_rss_bytes());  // the run's, before the report's own arrays (programs' values: 9 MB at 10^5)
     nlohmann::json r;
     const int steps = p.steps_done() - p.first_step();  // of this run (a restart continues from first_step)
     const double wall = domain.max(info.wall_s);
@@ -273,10 +309,10 @@ nlohmann::json make_report(const Scene& scene, const Pipeline& p, const RunInfo&
     domain.sum(&total_rss, 1);
     r["memory"] = {{"peak_rss_bytes", spread(domain, rss)},
                    {"bytes_per_body", total_rss.value() / std::max<double>(1.0, static_cast<double>(p.world().global_body_count()))}};
-    if (domain.distributed()) {
-        const double top = r["memory"]["peak_rss_bytes"]["max"].get<double>();  // spread's reduction, not another
-        r["memory"]["fullest"] = fullest_rank(domain, p.world(), rss, top);
-    }
+    const double top = r["memory"]["peak_rss_bytes"]["max"].get<double>();  // spread's reduction, not another
+    const int fullest = fullest_of(domain, rss, top);
+    if (domain.distributed()) r["memory"]["fullest"] = fullest_rank(domain, p.world(), fullest);
+    r["memory"]["peak_by_stage"] = peak_parts_json(domain, p, fullest, top);
     const nlohmann::json checks = p.checks_result();
     if (!checks.is_null()) r["checks"] = checks;
     r["build"] = build_info();
@@ -318,6 +354,7 @@ void print_summary(std::ostream& os, const nlohmann::json& r) {
     os << "  penetration max " << d["max_penetration"].get<double>() << " m, mean "
        << d["mean_penetration"].get<double>() << " m, NaN bodies " << d["nan_count"] << "\n";
     os << "  state hash " << r["state_hash"].get<std::string>() << "\n";
+    print_peak_parts(os, r["memory"]);
     os.unsetf(std::ios::floatfield);
     if (!r.contains("checks")) return;
     os << "  checks " << (r["checks"]["passed"].get<bool>() ? "passed" : "FAILED") << ":";
