@@ -367,13 +367,14 @@ void MpiDomain::receive_bodies(World& world, std::vector<WarmImpulse>* warm, con
 }
 
 // The owned bodies that other processes hold (or may: a migrant not located
-// this step), with their states, in body order: found in chunks on the
-// threads, since most owned bodies are held here alone and the scan reads
-// every one; the states are read only for the few that are not. The chunks'
-// lists are returned as they are: joining them held every state twice.
-std::vector<std::vector<MpiDomain::Outgoing>> MpiDomain::outgoing(const World& world) const {
+// this step), in body order: found in chunks on the threads, since most
+// owned bodies are held here alone and the scan reads every one. The chunks'
+// lists of locals are returned as they are; the states are read as the
+// messages are written (kept here too, they were the exchange's largest
+// buffer, at the step's peak of memory).
+std::vector<std::vector<std::uint32_t>> MpiDomain::outgoing(const World& world) const {
     const std::size_t n = world.body_count(), chunks = chunk_count(loops_, n, 4096);
-    std::vector<std::vector<Outgoing>> part(chunks);
+    std::vector<std::vector<std::uint32_t>> part(chunks);
     const int me = rank();
     loops_.run(chunks, n, [&](std::size_t c) {
         for (std::size_t i = chunk_begin(n, chunks, c); i < chunk_begin(n, chunks, c + 1); ++i) {
@@ -383,7 +384,7 @@ std::vector<std::vector<MpiDomain::Outgoing>> MpiDomain::outgoing(const World& w
                 const std::vector<int>& h = holders(s);
                 if (std::all_of(h.begin(), h.end(), [me](int r) { return r == me; })) continue;
             }
-            part[c].push_back({static_cast<std::uint32_t>(i), world.state(i)});
+            part[c].push_back(static_cast<std::uint32_t>(i));
         }
     });
     return part;
@@ -393,14 +394,15 @@ std::vector<std::vector<MpiDomain::Outgoing>> MpiDomain::outgoing(const World& w
 // the ghosts they have, add new ones and drop those nobody sent. Each
 // message is counted before it is written, so that it takes the bytes it
 // needs and no more (appending grew them up to twice that: at the step's
-// peak of memory, a sizeable share of a ghost's cost).
+// peak of memory, a sizeable share of a ghost's cost); the messages are
+// freed once sent, before the ghosts they bring are made.
 void MpiDomain::exchange_states(World& world) {
     world_ = &world;
     const auto parts = outgoing(world);
     std::map<int, std::size_t> count;
     for (const auto& part : parts) {
-        for (const Outgoing& o : part) {
-            for (int h : holders(place(world, o.local))) count[h] += h == rank() ? 0 : 1;
+        for (std::uint32_t i : part) {
+            for (int h : holders(place(world, i))) count[h] += h == rank() ? 0 : 1;
         }
     }
     std::map<int, Bytes> out;
@@ -411,16 +413,21 @@ void MpiDomain::exchange_states(World& world) {
         sent[h].reserve(n);
     }
     for (const auto& part : parts) {
-        for (const Outgoing& o : part) {
-            for (int h : holders(place(world, o.local))) {
+        for (std::uint32_t i : part) {
+            BodyState state;
+            bool read = false;  // the set-up's first exchange lists every owned body, most of them held here alone
+            for (int h : holders(place(world, i))) {
                 if (h == rank()) continue;
-                put(out[h], world.gid(o.local));
-                put(out[h], o.state);
-                sent[h].push_back(world.gid(o.local));
+                if (!read) state = world.state(i);
+                read = true;
+                put(out[h], world.gid(i));
+                put(out[h], state);
+                sent[h].push_back(world.gid(i));
             }
         }
     }
     const auto in = comm_.sparse_exchange(out, kTagGhost);
+    out.clear();
     std::size_t arriving = 0;  // new ghosts: room for them in one step
     for (const auto& [from, b] : in) {
         for (std::size_t at = 0; at < b.size(); at += sizeof(BodyState)) {  // take moves past the gid

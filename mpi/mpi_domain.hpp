@@ -114,12 +114,8 @@ private:
     void locate_all(World& world);
     // Whether this step's locate_all found the entry current.
     bool located(const DomainSlot& s) const { return s.stamp == stamp_ && s.stamp != 0 && s.epoch == epoch_; }
-    struct Outgoing {
-        std::uint32_t local;
-        BodyState state;
-    };
-    // Per chunk of bodies, in body order (chunk by chunk).
-    std::vector<std::vector<Outgoing>> outgoing(const World& world) const;
+    // Per chunk of bodies, their locals in body order (chunk by chunk).
+    std::vector<std::vector<std::uint32_t>> outgoing(const World& world) const;
     // A new stamp (never 0): the entries of the last pass stop being located.
     void next_stamp() {
         if (++stamp_ == 0) stamp_ = 1;
