@@ -414,7 +414,7 @@ void MpiDomain::exchange_states(World& world) {
     }
     for (const auto& part : parts) {
         for (std::uint32_t i : part) {
-            BodyState state;
+            BodyState state{};
             bool read = false;  // the set-up's first exchange lists every owned body, most of them held here alone
             for (int h : holders(place(world, i))) {
                 if (h == rank()) continue;
