@@ -80,7 +80,7 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
         snapshot_ = make_snapshot_writer(options.snapshot_path, scene, *world_, collectives(), steps_, steps_ * scene.dt,
                                          planned_frames(options));
     });
-    setup_peak_ = peak_rss_bytes();  // the set-up's stages count here, not in their steps' shares
+    setup_peak_ = last_peak_ = peak_rss_bytes();  // the set-up's stages count here, not in their steps' shares
     for (StageState& st : stages_) st.peak_growth = 0;
 }
 
@@ -233,10 +233,11 @@ void Pipeline::timed(Stage s, F&& f) {
     StageState& st = stages_[static_cast<int>(s)];
     if (!st.enabled) return;
     const auto t0 = std::chrono::steady_clock::now();
-    const std::int64_t peak0 = peak_rss_bytes();
     f();
     st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    st.peak_growth += peak_rss_bytes() - peak0;
+    const std::int64_t peak = peak_rss_bytes();  // one read a stage: what came since the last is this stage's
+    st.peak_growth += peak - last_peak_;
+    last_peak_ = peak;
 }
 
 void Pipeline::step() {

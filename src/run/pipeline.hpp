@@ -43,7 +43,7 @@ struct StageState {
     bool enabled = false;
     std::string reason;
     double seconds = 0;
-    std::int64_t peak_growth = 0;  // bytes the process's peak memory rose by while the stage ran (steps only)
+    std::int64_t peak_growth = 0;  // bytes the process's peak memory rose by from the end of the stage before to this one's (steps only)
 };
 
 struct RunOptions {
@@ -187,6 +187,7 @@ private:
     std::uint64_t contacts_of_ = ~0ULL;  // world generation the contacts are current for; ~0: stale
     double setup_collide_s_ = 0;          // the collision run by the constructor
     std::int64_t setup_peak_ = 0;         // peak memory at the end of the constructor
+    std::int64_t last_peak_ = 0;          // ... when the last timed stage ended
     bool collide_reused_ = false;         // the first step solved those contacts
     StepTimes first_times_;
     void record_first_step(double wall);

@@ -2,10 +2,10 @@
 #include "run/report.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <numeric>
 
 #include "util/errors.hpp"
 #include "util/hash.hpp"
@@ -85,24 +85,29 @@ nlohmann::json fullest_rank(const Collectives& domain, const World& world, int r
     return {{"rank", rank}, {"owned", held[0]}, {"ghosts", held[1]}};
 }
 
+// The parts of memory.peak_by_stage in their order: the set-up, the stages, other.
+std::vector<std::string> peak_part_names() {
+    std::vector<std::string> names{"setup"};
+    for (int s = 0; s < kStageCount; ++s) names.emplace_back(stage_name(static_cast<Stage>(s)));
+    names.emplace_back("other");
+    return names;
+}
+
 // What the fullest process's peak memory (`top`, bytes) is made of: the
 // set-up's peak, what each stage added to it over the steps, and `other`,
 // what came between and after them (a checkpoint written at the end); the
 // parts sum to `top`. Collective.
 nlohmann::json peak_parts_json(const Collectives& domain, const Pipeline& p, int rank, double top) {
-    std::array<std::int64_t, kStageCount + 1> part{};
+    const std::vector<std::string> names = peak_part_names();  // setup, the stages, other
+    std::vector<std::int64_t> part(names.size(), 0);
     if (domain.rank() == rank) {
         part[0] = p.setup_peak();
         for (int s = 0; s < kStageCount; ++s) part[static_cast<std::size_t>(s) + 1] = p.stage(static_cast<Stage>(s)).peak_growth;
     }
     domain.sum(part.data(), static_cast<int>(part.size()));
-    nlohmann::json j = {{"setup", part[0]}};
-    std::int64_t sum = part[0];
-    for (int s = 0; s < kStageCount; ++s) {
-        j[stage_name(static_cast<Stage>(s))] = part[static_cast<std::size_t>(s) + 1];
-        sum += part[static_cast<std::size_t>(s) + 1];
-    }
-    j["other"] = static_cast<std::int64_t>(top) - sum;
+    part.back() = static_cast<std::int64_t>(top) - std::accumulate(part.begin(), part.end() - 1, std::int64_t{0});
+    nlohmann::json j = nlohmann::json::object();
+    for (std::size_t k = 0; k < names.size(); ++k) j[names[k]] = part[k];
     return j;
 }
 
@@ -212,11 +217,8 @@ nlohmann::json first_step_json(const Collectives& domain, const Pipeline& p) {
 void print_peak_parts(std::ostream& os, const nlohmann::json& m) {
     constexpr double kMiB = 1024.0 * 1024.0;
     os << std::setprecision(1) << "  peak memory " << m["peak_rss_bytes"]["max"].get<double>() / kMiB << " MiB";
-    std::vector<std::string> names{"setup"};
-    for (int s = 0; s < kStageCount; ++s) names.emplace_back(stage_name(static_cast<Stage>(s)));
-    names.emplace_back("other");
     const char* sep = ": ";
-    for (const std::string& name : names) {
+    for (const std::string& name : peak_part_names()) {
         const double v = m["peak_by_stage"][name].get<double>();
         if (v < 0.1 * kMiB) continue;
         os << sep << name << " " << v / kMiB;
