@@ -177,26 +177,26 @@ std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
 // probes for this call's; calls with one tag alternate between two MPI tags
 // (1000 + 2 tag and the next; never two calls ahead: ending the next call
 // needs that process in its barrier), so no call takes the next one's.
-std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int call_tag) const {
+template <class Receive>
+void Comm::nbx(const std::vector<Message>& out, int call_tag, Receive receive) const {
     Clock c(stats_);
     const int tag = 1000 + 2 * call_tag + static_cast<int>(sparse_calls_[call_tag]++ & 1u);
     const double began = now_seconds();
     std::vector<MPI_Request> sends;
-    for (const auto& [dest, bytes] : out) {
+    for (const Message& m : out) {
         sends.emplace_back();
-        check(MPI_Issend(bytes.data(), static_cast<int>(bytes.size()), MPI_BYTE, dest, tag, MPI_COMM_WORLD, &sends.back()),
+        check(MPI_Issend(m.data, static_cast<int>(m.size), MPI_BYTE, m.rank, tag, MPI_COMM_WORLD, &sends.back()),
               "MPI_Issend");
-        stats_.bytes += bytes.size();
+        stats_.bytes += m.size;
         ++stats_.messages;
     }
-    std::vector<std::pair<int, Bytes>> in;
     MPI_Request barrier = MPI_REQUEST_NULL;
     for (bool done = false; !done;) {
         int flag = 0;
         MPI_Message msg;
         MPI_Status st;
         check(MPI_Improbe(MPI_ANY_SOURCE, tag, MPI_COMM_WORLD, &flag, &msg, &st), "MPI_Improbe");
-        if (flag) in.emplace_back(st.MPI_SOURCE, receive_probed(msg, st));
+        if (flag) receive(msg, st);
         if (barrier == MPI_REQUEST_NULL) {
             int sent = 0;
             check(MPI_Testall(static_cast<int>(sends.size()), sends.data(), &sent, MPI_STATUSES_IGNORE), "MPI_Testall");
@@ -207,8 +207,38 @@ std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Byt
             done = fin != 0;
         }
     }
-    std::sort(in.begin(), in.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     hold_until(began);
+}
+
+std::vector<std::pair<int, Bytes>> Comm::sparse_exchange(const std::map<int, Bytes>& out, int call_tag) const {
+    std::vector<Message> msgs;
+    for (const auto& [dest, bytes] : out) msgs.push_back({dest, bytes.data(), bytes.size()});
+    std::vector<std::pair<int, Bytes>> in;
+    nbx(msgs, call_tag, [&in](MPI_Message& msg, MPI_Status& st) { in.emplace_back(st.MPI_SOURCE, receive_probed(msg, st)); });
+    std::sort(in.begin(), in.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    return in;
+}
+
+char* Landing::place(std::size_t n) {
+    if (used + n <= room) {
+        char* at = data + used;
+        used += n;
+        return at;
+    }
+    spill.emplace_back(n);
+    return spill.back().data();
+}
+
+std::vector<Message> Comm::sparse_exchange(const std::vector<Message>& out, Landing& landing, int call_tag) const {
+    std::vector<Message> in;
+    nbx(out, call_tag, [&in, &landing](MPI_Message& msg, MPI_Status& st) {
+        int n = 0;
+        MPI_Get_count(&st, MPI_BYTE, &n);
+        char* at = landing.place(static_cast<std::size_t>(n));
+        check(MPI_Mrecv(at, n, MPI_BYTE, &msg, MPI_STATUS_IGNORE), "MPI_Mrecv");
+        in.push_back({st.MPI_SOURCE, at, static_cast<std::size_t>(n)});
+    });
+    std::sort(in.begin(), in.end(), [](const Message& a, const Message& b) { return a.rank < b.rank; });
     return in;
 }
 

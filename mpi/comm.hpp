@@ -31,12 +31,36 @@ void put(Bytes& b, const T& v) {
     std::memcpy(b.data() + at, &v, sizeof(T));
 }
 template <class T>
-T take(const Bytes& b, std::size_t& at) {
+T take(const char* b, std::size_t& at) {
     T v;
-    std::memcpy(&v, b.data() + at, sizeof(T));
+    std::memcpy(&v, b + at, sizeof(T));
     at += sizeof(T);
     return v;
 }
+template <class T>
+T take(const Bytes& b, std::size_t& at) {
+    return take<T>(b.data(), at);
+}
+
+// A message of the span form of Comm::sparse_exchange: `size` bytes at
+// `data`, for process `rank` or from it.
+struct Message {
+    int rank = -1;
+    const char* data = nullptr;
+    std::size_t size = 0;
+};
+
+// Where the span form of Comm::sparse_exchange puts what arrives: `room`
+// bytes at `data` (a buffer the caller lends, e.g. a scratch pool's), each
+// message after the last; a message that does not fit gets a buffer of its
+// own in `spill`.
+struct Landing {
+    char* data = nullptr;
+    std::size_t room = 0, used = 0;
+    std::vector<Bytes> spill;
+    // Room for `n` bytes: in the lent buffer when they fit, else spilled.
+    char* place(std::size_t n);
+};
 
 // True when this process was started by an MPI launcher (mpirun, mpiexec,
 // srun): then main() initialises MPI, otherwise it never touches it.
@@ -100,6 +124,9 @@ public:
     // here, sorted by source rank. Partners need not be known in advance.
     // Every process makes the calls with one `tag` in the same order.
     std::vector<std::pair<int, Bytes>> sparse_exchange(const std::map<int, Bytes>& out, int tag) const;
+    // The same from messages in the caller's memory (one per destination,
+    // ascending), received into `in`: no copy of a message on either side.
+    std::vector<Message> sparse_exchange(const std::vector<Message>& out, Landing& in, int tag) const;
     // Sends out[i] to partners[i] and receives one message (any size) from
     // each of `from`; in[j] is what from[j] sent (its buffer reused).
     void exchange(const std::vector<int>& to, const std::vector<Bytes>& out, const std::vector<int>& from,
@@ -143,6 +170,10 @@ public:
     const CommStats& stats() const { return stats_; }
 
 private:
+    // sparse_exchange's rounds: sends `out`, calls receive(msg, status) for
+    // each message matched here.
+    template <class Receive>
+    void nbx(const std::vector<Message>& out, int call_tag, Receive receive) const;
     // Waits until `since` + the injected latency (now_seconds' clock).
     void hold_until(double since) const;
     int rank_ = 0, size_ = 1;

@@ -70,8 +70,8 @@ void sort_impulses(std::vector<WarmImpulse>& warm, std::size_t first) {
 
 }  // namespace
 
-MpiDomain::MpiDomain(const Scene& scene, const Execution& exec)
-    : scene_(scene), loops_(exec.loops()), cells_(scene), reach_(halo_reach(scene)) {
+MpiDomain::MpiDomain(const Scene& scene, Execution& exec)
+    : scene_(scene), loops_(exec.loops()), scratch_(&exec.scratch()), cells_(scene), reach_(halo_reach(scene)) {
     nbr_index_.assign(static_cast<std::size_t>(comm_.size()), -1);
 }
 
@@ -405,13 +405,23 @@ void MpiDomain::exchange_states(World& world) {
             for (int h : holders(place(world, i))) count[h] += h == rank() ? 0 : 1;
         }
     }
-    std::map<int, Bytes> out;
+    constexpr std::size_t kRecord = sizeof(std::uint32_t) + sizeof(BodyState);
+    std::size_t out_bytes = 0;
+    std::map<int, std::size_t> at;  // each destination's next record in the buffer
     std::map<int, std::vector<std::uint32_t>> sent;
     for (const auto& [h, n] : count) {
         if (n == 0) continue;
-        out[h].reserve(n * (sizeof(std::uint32_t) + sizeof(BodyState)));
+        at[h] = out_bytes;
+        out_bytes += n * kRecord;
         sent[h].reserve(n);
     }
+    // The messages and what arrives share a buffer of the scratch pool,
+    // whose slots are idle between steps (no stage's arrays outlive it):
+    // the exchange then takes memory the solve made resident, not more.
+    const std::size_t room = std::max(in_bytes_, out_bytes) + out_bytes / 4 + 4096;
+    char* buffer = static_cast<char*>(scratch_->take(kSlotMessages, out_bytes + room));
+    std::vector<Message> out;
+    for (const auto& [h, from] : at) out.push_back({h, buffer + from, count[h] * kRecord});
     for (const auto& part : parts) {
         for (std::uint32_t i : part) {
             BodyState state{};
@@ -420,27 +430,32 @@ void MpiDomain::exchange_states(World& world) {
                 if (h == rank()) continue;
                 if (!read) state = world.state(i);
                 read = true;
-                put(out[h], world.gid(i));
-                put(out[h], state);
-                sent[h].push_back(world.gid(i));
+                const std::uint32_t gid = world.gid(i);
+                char* to = buffer + at[h];
+                std::memcpy(to, &gid, sizeof gid);
+                std::memcpy(to + sizeof gid, &state, sizeof state);
+                at[h] += kRecord;
+                sent[h].push_back(gid);
             }
         }
     }
-    const auto in = comm_.sparse_exchange(out, kTagGhost);
-    out.clear();
+    Landing landing{buffer + out_bytes, room, 0, {}};
+    const auto in = comm_.sparse_exchange(out, landing, kTagGhost);
+    in_bytes_ = 0;
+    for (const Message& m : in) in_bytes_ += m.size;
     std::size_t arriving = 0;  // new ghosts: room for them in one step
-    for (const auto& [from, b] : in) {
-        for (std::size_t at = 0; at < b.size(); at += sizeof(BodyState)) {  // take moves past the gid
-            arriving += world.local_of(take<std::uint32_t>(b, at)) == IdMap::kNone ? 1 : 0;
+    for (const Message& m : in) {
+        for (std::size_t k = 0; k < m.size; k += sizeof(BodyState)) {  // take moves past the gid
+            arriving += world.local_of(take<std::uint32_t>(m.data, k)) == IdMap::kNone ? 1 : 0;
         }
     }
     world.reserve_bodies(world.body_count() + arriving);
     std::vector<std::uint8_t> seen(world.body_count(), 0);
     std::map<int, std::vector<std::uint32_t>> received;
-    for (const auto& [from, b] : in) {
-        for (std::size_t at = 0; at < b.size();) {
-            const auto gid = take<std::uint32_t>(b, at);
-            const auto state = take<BodyState>(b, at);
+    for (const Message& m : in) {
+        for (std::size_t k = 0; k < m.size;) {
+            const auto gid = take<std::uint32_t>(m.data, k);
+            const auto state = take<BodyState>(m.data, k);
             std::uint32_t local = world.local_of(gid);
             if (local != IdMap::kNone && !world.ghost(local)) {
                 ++conflicts_;  // owned here and sent as a ghost: reported by check_invariants
@@ -454,7 +469,7 @@ void MpiDomain::exchange_states(World& world) {
                 world.slot(local).stamp = 0;  // moved: locate again
                 seen[local] = 1;
             }
-            received[from].push_back(gid);
+            received[m.rank].push_back(gid);
         }
     }
     for (std::size_t i = world.body_count(); i-- > 0;) {

@@ -63,9 +63,10 @@ private:
 // The "mpi" decomposition of the stage registry (mpi/stages.hpp).
 class MpiDomain final : public Decomposition, public CorrectionExchange {
 public:
-    // On MPI_COMM_WORLD; its loops on `exec`'s runner (which must outlive it).
-    MpiDomain(const Scene& scene, const Execution& exec);
-    MpiDomain(Scene&&, const Execution&) = delete;  // keeps a reference to the scene
+    // On MPI_COMM_WORLD; its loops on `exec`'s runner, the ghost exchange's
+    // messages in `exec`'s scratch pool (both must outlive it).
+    MpiDomain(const Scene& scene, Execution& exec);
+    MpiDomain(Scene&&, Execution&) = delete;  // keeps a reference to the scene
 
     const Collectives& collectives() const override { return collectives_; }
     void check_scene(const Scene& scene, const std::string& collide, const std::string& solver) const override;
@@ -128,6 +129,7 @@ private:
 
     const Scene& scene_;
     const LoopRunner& loops_;
+    ScratchPool* scratch_;
     Comm comm_;
     MpiCollectives collectives_{comm_};
     CellSpace cells_;
@@ -139,6 +141,7 @@ private:
     std::vector<std::uint8_t> moved_;              // locate_all: bodies that changed cell
     std::vector<int> send_to_, recv_from_;         // ghost partners of this step
     std::vector<std::vector<std::uint32_t>> send_locals_, recv_locals_;
+    std::size_t in_bytes_ = 0;                     // what the last ghost exchange received
     std::vector<int> nbrs_;                        // partners of the solver's exchange
     std::vector<int> nbr_index_;                   // rank -> index into nbrs_, or -1
     std::vector<std::vector<std::vector<std::uint32_t>>> corr_;  // colour -> neighbour -> locals

@@ -28,7 +28,7 @@ using namespace parode;
 namespace {
 
 const mpi::Comm* g_comm = nullptr;
-const Execution* g_exec = nullptr;  // one thread, the serial loops
+Execution* g_exec = nullptr;  // one thread, the serial loops
 
 Scene slab() {
     return load_scene_text("[scene]\nname = \"slab\"\n[catoms]\ncount = 512\n[[planes]]\nnormal = [0.0, 0.0, 1.0]\n", "slab");
@@ -226,6 +226,32 @@ TEST(MpiCollectives, SparseExchangeDeliversOnlyWhatWasSent) {
     EXPECT_THROW(c.sparse_to(std::vector<std::vector<char>>(2), 4), std::logic_error);
 }
 
+// The span form: messages read in place from the sender's buffer and landed
+// in the receiver's lent buffer while they fit, each later one in a buffer
+// of its own; sorted by source either way, every byte as sent.
+TEST(MpiComm, SparseExchangeLandsInTheLentBufferThenSpills) {
+    const mpi::Comm& comm = *g_comm;
+    const int me = comm.rank(), other = 1 - me;
+    const auto bytes = [](int from, std::size_t n) {
+        std::vector<char> b(n);
+        for (std::size_t k = 0; k < n; ++k) b[k] = static_cast<char>((from * 131 + static_cast<int>(k) * 7) % 251);
+        return b;
+    };
+    for (const std::size_t room : {std::size_t{0}, std::size_t{99}, std::size_t{100}, std::size_t{4096}}) {
+        const std::vector<char> mine = bytes(me, 100);
+        std::vector<char> lent(4096, 0);
+        mpi::Landing landing{lent.data(), room, 0, {}};
+        const auto in = comm.sparse_exchange({{other, mine.data(), mine.size()}}, landing, 3);
+        ASSERT_EQ(in.size(), 1u) << "room " << room;
+        EXPECT_EQ(in[0].rank, other);
+        EXPECT_EQ(std::vector<char>(in[0].data, in[0].data + in[0].size), bytes(other, 100)) << "room " << room;
+        const bool fits = room >= 100;
+        EXPECT_EQ(in[0].data == lent.data(), fits) << "room " << room;
+        EXPECT_EQ(landing.spill.size(), fits ? 0u : 1u) << "room " << room;
+        EXPECT_EQ(landing.used, fits ? 100u : 0u) << "room " << room;
+    }
+}
+
 // Calls on one channel back to back, every process sending to the last (as a
 // checkpoint's pieces of catom records): each call gets its own round's
 // messages only, although a process that saw a call end may send the next
@@ -255,7 +281,7 @@ int main(int argc, char** argv) {
     mpi::Session session(argc, argv);
     mpi::Comm comm;
     g_comm = &comm;
-    const Execution exec;
+    Execution exec;
     g_exec = &exec;
     ::testing::InitGoogleTest(&argc, argv);
     return RUN_ALL_TESTS();

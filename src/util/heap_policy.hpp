@@ -15,10 +15,11 @@
 //   once before the first step: the root carried ~2.7 MB more at its peak
 //   than a rank of its size (8 ranks of 50,000 catoms).
 // Trade-off: the few buffers of 1 MiB or more a step frees and allocates
-// again (the ghost exchange's) are mapped and faulted in each time: 2 ranks
-// of 10^6 catoms take 4,090 page faults a step against 1,670, 1-2 ms of 600
-// (kept as members instead, they were resident at the solve's peak); one
-// walk of the heap at start-up (0.5 ms on each of 2 ranks of 10^6 catoms).
+// again are mapped and faulted in each time (the ghost exchange's were: 2
+// ranks of 10^6 catoms took 4,090 page faults a step against 1,670, 1-2 ms
+// of 600; kept as members instead, they were resident at the solve's peak;
+// they now lie in the scratch pool, mpi_domain.cpp); one walk of the heap at
+// start-up (0.5 ms on each of 2 ranks of 10^6 catoms).
 #pragma once
 #include <cstdlib>
 #include <cstring>

@@ -1,7 +1,8 @@
 // Buffers that stages running one after the other lend each other. Each stage
 // keeps its large per-call arrays (rebuilt from nothing every call) in slots
-// of a ScratchPool; the pipeline gives the collider and the contact solver one
-// pool, so the collider's geom tables and the solver's rows and bodies occupy
+// of a ScratchPool; the pipeline gives the collider, the contact solver and
+// the distributed domain's ghost exchange one pool, so the collider's geom
+// tables, the solver's rows and bodies and the exchange's messages occupy
 // the same memory at different times of the step instead of side by side.
 // A slot grows by freeing its old buffer before taking a new one (twice what
 // is asked, see util/scratch.hpp), 64-byte aligned; capacity not yet touched
@@ -81,8 +82,10 @@ private:
     std::size_t size_ = 0;
 };
 
-// The slots of the two users the pipeline pairs.
+// The slots of the users the pipeline pairs: the collider, the contact
+// solver and, between steps, the distributed domain's ghost exchange.
 enum ScratchSlot : int { kSlotGeoms = 0, kSlotEntries = 1, kSlotPrims = 2 };  // collider
 enum SolverSlot : int { kSlotRows = 0, kSlotBodies = 1, kSlotBodyRows = 2, kSlotMotion = 3, kSlotReach = 4 };  // contact solver (motion, reach: substeps)
+enum ExchangeSlot : int { kSlotMessages = 0 };  // ghost exchange: its messages out and in
 
 }  // namespace parode
