@@ -332,52 +332,82 @@ void io_check(int rc, const std::string& path, const char* what) {
 
 // `tail` at `at`, collectively: whole MiB as one element each, then the
 // rest, so that a tail past 2 GiB (an int count of bytes) is written whole.
-int write_tail(MPI_File fh, MPI_Offset at, const Bytes& tail) {
-    constexpr std::size_t kMiB = std::size_t{1} << 20;
-    MPI_Datatype mib;
-    MPI_Type_contiguous(static_cast<int>(kMiB), MPI_BYTE, &mib);
-    MPI_Type_commit(&mib);
-    const std::size_t whole = tail.size() / kMiB, rest = tail.size() % kMiB;
-    int rc = MPI_File_write_at_all(fh, at, tail.data(), static_cast<int>(whole), mib, MPI_STATUS_IGNORE);
-    MPI_Type_free(&mib);
-    const MPI_Offset rest_at = at + static_cast<MPI_Offset>(whole * kMiB);
-    const int rc2 = MPI_File_write_at_all(fh, rest_at, tail.data() + whole * kMiB, static_cast<int>(rest), MPI_BYTE,
-                                          MPI_STATUS_IGNORE);
-    return rc != MPI_SUCCESS ? rc : rc2;
+
+}  // namespace
+
+namespace {
+
+// Records [first, first + n) of `f` through a view of their places and one
+// collective write (n may be 0: this process then takes part with nothing).
+int write_records(MPI_File fh, MPI_Datatype rec, const FilePieces& f, std::size_t first, std::size_t n, char* piece) {
+    if (n > 0) f.pack(first, n, piece);
+    std::vector<int> at(f.gids.begin() + static_cast<std::ptrdiff_t>(first),
+                        f.gids.begin() + static_cast<std::ptrdiff_t>(first + n));
+    MPI_Datatype view = rec;
+    if (n > 0) {
+        MPI_Type_create_indexed_block(static_cast<int>(n), 1, at.data(), rec, &view);
+        MPI_Type_commit(&view);
+    }
+    int rc = MPI_File_set_view(fh, static_cast<MPI_Offset>(f.records_at), rec, view, "native", MPI_INFO_NULL);
+    if (rc == MPI_SUCCESS) rc = MPI_File_write_all(fh, piece, static_cast<int>(n), rec, MPI_STATUS_IGNORE);
+    if (n > 0) MPI_Type_free(&view);
+    return rc;
+}
+
+// Every process's tail after the previous ranks' tails, a piece a round, as
+// many rounds on every process as the longest tail needs.
+int write_tails(MPI_File fh, const FilePieces& f, std::vector<char>& piece) {
+    long long mine = static_cast<long long>(f.tail_count * f.tail_record), before = 0;
+    MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank == 0) before = 0;
+    unsigned long long rounds = (f.tail_count + f.piece - 1) / f.piece;
+    MPI_Allreduce(MPI_IN_PLACE, &rounds, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    piece.resize(std::max(piece.size(), std::min(f.tail_count, f.piece) * f.tail_record));
+    int rc = MPI_File_set_view(fh, 0, MPI_BYTE, MPI_BYTE, "native", MPI_INFO_NULL);
+    for (unsigned long long r = 0; r < rounds; ++r) {
+        const std::size_t first = std::min(f.tail_count, static_cast<std::size_t>(r) * f.piece);
+        const std::size_t n = std::min(f.tail_count - first, f.piece);
+        if (n > 0) f.pack_tail(first, n, piece.data());
+        const MPI_Offset at = static_cast<MPI_Offset>(f.tail_at) + before + static_cast<MPI_Offset>(first * f.tail_record);
+        const int rr = MPI_File_write_at_all(fh, at, piece.data(), static_cast<int>(n * f.tail_record), MPI_BYTE,
+                                             MPI_STATUS_IGNORE);
+        if (rc == MPI_SUCCESS) rc = rr;
+    }
+    return rc;
 }
 
 }  // namespace
 
-void Comm::write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
-                      const std::vector<std::uint32_t>& gids, const Bytes& records, std::uint64_t tail_at,
-                      const Bytes& tail) const {
+void Comm::write_file(const std::string& path, const FilePieces& f) const {
     Clock c(stats_);
     MPI_File fh;
     MPI_File_set_errhandler(MPI_FILE_NULL, MPI_ERRORS_RETURN);
     io_check(MPI_File_open(MPI_COMM_WORLD, path.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh), path,
              "opening for writing");
     int rc = MPI_File_set_size(fh, 0);
-    if (rank_ == 0 && rc == MPI_SUCCESS && !head.empty()) {
-        rc = MPI_File_write_at(fh, 0, head.data(), static_cast<int>(head.size()), MPI_BYTE, MPI_STATUS_IGNORE);
+    if (rank_ == 0 && rc == MPI_SUCCESS && !f.head.empty()) {
+        rc = MPI_File_write_at(fh, 0, f.head.data(), static_cast<int>(f.head.size()), MPI_BYTE, MPI_STATUS_IGNORE);
     }
-    MPI_Datatype rec, view;
-    MPI_Type_contiguous(static_cast<int>(record), MPI_BYTE, &rec);
+    MPI_Datatype rec;
+    MPI_Type_contiguous(static_cast<int>(f.record), MPI_BYTE, &rec);
     MPI_Type_commit(&rec);
-    const std::vector<int> at(gids.begin(), gids.end());
-    MPI_Type_create_indexed_block(static_cast<int>(at.size()), 1, at.data(), rec, &view);
-    MPI_Type_commit(&view);
-    int rc2 = MPI_File_set_view(fh, static_cast<MPI_Offset>(records_at), rec, view, "native", MPI_INFO_NULL);
-    if (rc2 == MPI_SUCCESS) rc2 = MPI_File_write_all(fh, records.data(), static_cast<int>(gids.size()), rec, MPI_STATUS_IGNORE);
-    long long mine = static_cast<long long>(tail.size()), before = 0;
-    MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-    if (rank_ == 0) before = 0;
-    int rc3 = MPI_File_set_view(fh, 0, MPI_BYTE, MPI_BYTE, "native", MPI_INFO_NULL);
-    if (rc3 == MPI_SUCCESS) rc3 = write_tail(fh, static_cast<MPI_Offset>(tail_at) + before, tail);
-    MPI_Type_free(&view);
+    std::uint64_t rounds = (f.gids.size() + f.piece - 1) / f.piece;
+    max(&rounds, 1);  // every process in every round's collective write
+    std::vector<char> piece(std::max<std::size_t>(1, std::min(f.gids.size(), f.piece) * f.record));  // reused by the tails
+    int rc2 = MPI_SUCCESS;
+    for (std::uint64_t r = 0; r < rounds; ++r) {
+        const std::size_t first = std::min(f.gids.size(), static_cast<std::size_t>(r) * f.piece);
+        const std::size_t n = std::min(f.gids.size() - first, f.piece);
+        const int rr = write_records(fh, rec, f, first, n, piece.data());
+        if (rc2 == MPI_SUCCESS) rc2 = rr;
+    }
+    const int rc3 = write_tails(fh, f, piece);
     MPI_Type_free(&rec);
     const int rc5 = MPI_File_sync(fh);  // on the disk before the caller renames the file into place
     const int rc4 = MPI_File_close(&fh);
-    stats_.bytes += head.size() + records.size() + tail.size();
+    stats_.bytes += f.head.size() + f.gids.size() * f.record + f.tail_count * f.tail_record;
     io_check(rc != MPI_SUCCESS    ? rc
              : rc2 != MPI_SUCCESS ? rc2
              : rc3 != MPI_SUCCESS ? rc3

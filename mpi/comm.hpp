@@ -19,6 +19,8 @@
 #include <utility>
 #include <vector>
 
+#include "domain/collectives.hpp"
+
 namespace parode::mpi {
 
 using Bytes = std::vector<char>;
@@ -144,15 +146,15 @@ public:
     // network of that latency; 0 when unset.
     double injected_latency() const { return latency_; }
 
-    // Collective MPI-IO: the root's `head` at 0; `records` (one of `record`
-    // bytes per entry of `gids`, ascending) at records_at + gid * record,
-    // through an indexed file view and a collective write (aggregated by the
-    // MPI library); each process's `tail` after the previous ranks' tails,
-    // from tail_at. Throws std::runtime_error (on every process) when the file
-    // cannot be opened or written.
-    void write_file(const std::string& path, const Bytes& head, std::uint64_t records_at, std::size_t record,
-                    const std::vector<std::uint32_t>& gids, const Bytes& records, std::uint64_t tail_at,
-                    const Bytes& tail) const;
+    // Collective MPI-IO of `f` (domain/collectives.hpp): the root's head at
+    // 0; the records (one of f.record bytes per entry of f.gids, ascending)
+    // at f.records_at + gid * f.record, f.piece a round (as many rounds
+    // on every process as the fullest needs), each through an indexed file
+    // view and a collective write (aggregated by the MPI library); each
+    // process's tail after the previous ranks' tails, from f.tail_at. Throws
+    // std::runtime_error (on every process) when the file cannot be opened
+    // or written.
+    void write_file(const std::string& path, const FilePieces& f) const;
 
     // HDF5 property lists (hid_t values) for one file of every process: the
     // MPI-IO driver on MPI_COMM_WORLD, independent transfers of each

@@ -51,7 +51,7 @@ public:
         comm_.h5_parallel(file_access, transfer);
     }
     void write_file(const std::string& path, const FilePieces& f) const override {
-        comm_.write_file(path, f.head, f.records_at, f.record, f.gids, f.records, f.tail_at, f.tail);
+        comm_.write_file(path, f);
     }
     using Collectives::max;
     using Collectives::sum;

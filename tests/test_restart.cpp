@@ -13,14 +13,17 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "domain/collectives.hpp"
 #include "io/checkpoint.hpp"
 #include "binary.hpp"
 
@@ -67,6 +70,40 @@ INSTANTIATE_TEST_SUITE_P(
                       Config{"magnets", "magnetic-tennis.toml --set catoms.count=500 --collide grid --solver parallel"},
                       Config{"buggy", "buggy.toml"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
+
+// One process's file: the records and then the tail made piece by piece
+// (two a piece), each run of consecutive ids inside a piece in one write;
+// head, records by gid and tail byte for byte.
+TEST(FilePieces, OneProcessWritesTheRecordsPieceByPiece) {
+    const std::vector<std::uint32_t> gids{0, 1, 2, 4, 5, 7};
+    const auto record = [](std::uint32_t g) { return std::string("r") + static_cast<char>('a' + g) + "-"; };
+    parode::FilePieces f;
+    f.head = {'h', 'd'};
+    f.records_at = 2;
+    f.record = 3;
+    f.gids = gids;
+    f.piece = 2;
+    std::vector<std::size_t> sizes;
+    f.pack = [&](std::size_t first, std::size_t n, char* out) {
+        sizes.push_back(n);
+        for (std::size_t k = 0; k < n; ++k) std::memcpy(out + 3 * k, record(gids[first + k]).data(), 3);
+    };
+    f.tail_at = 2 + 8 * 3;
+    const std::string tail = "TUV";
+    f.tail_count = tail.size();
+    f.pack_tail = [&](std::size_t first, std::size_t n, char* out) {
+        sizes.push_back(100 + n);
+        std::memcpy(out, tail.data() + first, n);
+    };
+    const std::string path = (std::filesystem::temp_directory_path() / "parode_file_pieces.bin").string();
+    parode::Collectives().write_file(path, f);
+    EXPECT_EQ(sizes, (std::vector<std::size_t>{2, 2, 2, 102, 101}));
+    std::ifstream in(path, std::ios::binary);
+    std::string got((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    got.replace(2 + 3 * 3, 3, "...").replace(2 + 6 * 3, 3, "...");  // ids 3 and 6: held by nobody, never written
+    EXPECT_EQ(got, "hd" + record(0) + record(1) + record(2) + "..." + record(4) + record(5) + "..." + record(7) + "TUV");
+    std::filesystem::remove(path);
+}
 
 TEST_F(Restart, CheckpointOfAnotherSceneIsRefused) {
     ASSERT_EQ(parode("run " + kScenes + "tennis.toml --set catoms.count=64 --steps 5 -q --checkpoint c.ckpt"), 0);

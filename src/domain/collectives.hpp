@@ -12,6 +12,7 @@
 // block of ids), and the step's bulk traffic through the Decomposition.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -19,17 +20,29 @@
 
 namespace parode {
 
+// Records a piece of FilePieces holds at most: 5.5 MB of checkpoint records,
+// about the collective write's own buffers.
+inline constexpr std::size_t kPieceRecords = 32768;
+
 // One file written by every process together: the root's head at 0, fixed-
 // size records of bodies at records_at + gid * record (gids ascending), then
-// every process's tail, in rank order, from tail_at.
+// every process's tail (tail_count records of tail_record bytes), in rank
+// order, from tail_at. Records and tails are made as they are written,
+// `piece` at a time (pack(first, n, out) writes records first .. first +
+// n - 1, in gids' order, at out; pack_tail the same of the tail): a process
+// never holds all of them at once (a checkpoint's: 168 bytes a body, 36 an
+// impulse).
 struct FilePieces {
+    using Pack = std::function<void(std::size_t first, std::size_t n, char* out)>;
     std::vector<char> head;  // root only
     std::uint64_t records_at = 0;
     std::size_t record = 0;
     std::vector<std::uint32_t> gids;
-    std::vector<char> records;
+    Pack pack;
     std::uint64_t tail_at = 0;
-    std::vector<char> tail;
+    std::size_t tail_record = 1, tail_count = 0;
+    Pack pack_tail;
+    std::size_t piece = kPieceRecords;  // records (or tail records) a piece
 };
 
 // `n` bytes at `at` of file `fd`, whole (pwrite may write less); false on an error.

@@ -62,12 +62,10 @@ CheckpointRecord unpack_record(const char* in) {
     return r;
 }
 
-void pack_impulse(const WarmImpulse& m, std::vector<char>& out) {
-    const std::size_t at = out.size();
-    out.resize(at + kImpulseBytes);
+void pack_impulse(const WarmImpulse& m, char* out) {
     const std::uint32_t ids[3] = {m.lo, m.hi, m.index};
-    std::memcpy(out.data() + at, ids, sizeof ids);
-    std::memcpy(out.data() + at + sizeof ids, m.lambda, 3 * sizeof(double));
+    std::memcpy(out, ids, sizeof ids);
+    std::memcpy(out + sizeof ids, m.lambda, 3 * sizeof(double));
 }
 
 WarmImpulse unpack_impulse(const char* in) {
@@ -197,9 +195,23 @@ public:
     void add(const char* data, std::size_t n) { XXH3_64bits_update(state_.get(), data, n); }
     std::string hex() const { return hex64(XXH3_64bits_digest(state_.get())); }
 
+    std::uint64_t digest() const { return XXH3_64bits_digest(state_.get()); }
+
 private:
     std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
 };
+
+// XXH3 of the tail `f` will write (packed a piece at a time, as written).
+std::uint64_t tail_xxh3(const FilePieces& f) {
+    Xxh3Stream h;
+    std::vector<char> piece(std::min(f.tail_count, f.piece) * f.tail_record);
+    for (std::size_t first = 0; first < f.tail_count; first += f.piece) {
+        const std::size_t n = std::min(f.tail_count - first, f.piece);
+        f.pack_tail(first, n, piece.data());
+        h.add(piece.data(), n * f.tail_record);
+    }
+    return h.digest();
+}
 
 // `use(piece)` for each piece of `extra` in order (collective).
 template <class Use>
@@ -258,23 +270,26 @@ CheckpointCost write_checkpoint(const std::string& path, const Collectives& doma
         if (!world.ghost(i)) owned.emplace_back(world.gid(i), i);
     }
     std::sort(owned.begin(), owned.end());
-    f.records.resize(owned.size() * kRecordBytes);
-    for (std::size_t k = 0; k < owned.size(); ++k) {
-        f.gids.push_back(owned[k].first);
-        pack_record(world, owned[k].second, f.records.data() + k * kRecordBytes);
-    }
-    if (warm) {
-        for (const WarmImpulse& m : *warm) pack_impulse(m, f.tail);
-    }
+    for (const auto& o : owned) f.gids.push_back(o.first);
+    f.pack = [&world, &owned](std::size_t first, std::size_t n, char* out) {  // again as they are written
+        for (std::size_t k = 0; k < n; ++k) pack_record(world, owned[first + k].second, out + k * kRecordBytes);
+    };
+    f.tail_record = kImpulseBytes;
+    f.tail_count = warm ? warm->size() : 0;
+    f.pack_tail = [warm](std::size_t first, std::size_t n, char* out) {
+        for (std::size_t k = 0; k < n; ++k) pack_impulse((*warm)[first + k], out + k * kImpulseBytes);
+    };
     const auto hashing = std::chrono::steady_clock::now();
     std::vector<std::uint64_t> sums(sum_blocks(world.global_body_count()), 0);
     for (std::size_t k = 0; k < owned.size(); ++k) {
-        sums[f.gids[k] / kRecordSumBlock] += record_hash(f.records.data() + k * kRecordBytes, f.gids[k]);
+        char record[kRecordBytes];
+        pack_record(world, owned[k].second, record);
+        sums[f.gids[k] / kRecordSumBlock] += record_hash(record, f.gids[k]);
     }
-    const std::uint64_t tail_hash = XXH3_64bits(f.tail.data(), f.tail.size());
+    const std::uint64_t tail_hash = tail_xxh3(f);
     double cost[2] = {std::chrono::duration<double>(std::chrono::steady_clock::now() - hashing).count(), 0};
     domain.sum_wrapping(sums.data(), static_cast<int>(sums.size()));  // every block's records, from every writer
-    const std::int64_t impulses = domain.sum(static_cast<std::int64_t>(f.tail.size() / kImpulseBytes));
+    const std::int64_t impulses = domain.sum(static_cast<std::int64_t>(f.tail_count));
     meta["bodies"] = world.global_body_count();
     meta["impulses"] = impulses;
     meta["record_bytes"] = kRecordBytes;
