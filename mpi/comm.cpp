@@ -146,16 +146,37 @@ void Comm::broadcast(Bytes& bytes, int root) const {
 }
 
 std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
-    Clock c(stats_);
-    std::vector<int> send(static_cast<std::size_t>(size_)), recv(send.size());
+    std::vector<std::size_t> counts(static_cast<std::size_t>(size_));
     Bytes flat;
-    for (std::size_t r = 0; r < send.size(); ++r) {
+    for (std::size_t r = 0; r < counts.size(); ++r) {
         if (out[r].size() > static_cast<std::size_t>(INT_MAX) - flat.size()) {
             throw std::runtime_error("all_to_all: more than 2 GiB from one process");
         }
-        send[r] = static_cast<int>(out[r].size());
+        counts[r] = out[r].size();
         flat.insert(flat.end(), out[r].begin(), out[r].end());
     }
+    std::vector<int> recv;
+    const Bytes all = exchange_all(flat, counts, recv);
+    return split(all, recv);
+}
+
+Bytes Comm::all_to_all(Bytes flat, const std::vector<std::size_t>& counts) const {
+    std::vector<int> recv;
+    return exchange_all(std::move(flat), counts, recv);
+}
+
+// MPI_Alltoallv of `flat` (counts[r] bytes to process r); `recv` the bytes
+// from each process. `flat` is freed before the result is handed back.
+Bytes Comm::exchange_all(Bytes flat, const std::vector<std::size_t>& counts, std::vector<int>& recv) const {
+    Clock c(stats_);
+    std::vector<int> send(static_cast<std::size_t>(size_));
+    long long out = 0;
+    for (std::size_t r = 0; r < send.size(); ++r) {
+        out += static_cast<long long>(counts[r]);
+        send[r] = static_cast<int>(counts[r]);
+    }
+    if (out > INT_MAX) throw std::runtime_error("all_to_all: more than 2 GiB from one process");
+    recv.assign(send.size(), 0);
     check(MPI_Alltoall(send.data(), 1, MPI_INT, recv.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Alltoall");
     long long in = 0;
     for (int n : recv) in += n;
@@ -165,8 +186,9 @@ std::vector<Bytes> Comm::all_to_all(const std::vector<Bytes>& out) const {
     check(MPI_Alltoallv(flat.data(), send.data(), sdisp.data(), MPI_BYTE, all.data(), recv.data(), rdisp.data(), MPI_BYTE,
                         MPI_COMM_WORLD),
           "MPI_Alltoallv");
-    stats_.bytes += flat.size() - out[static_cast<std::size_t>(rank_)].size();
-    return split(all, recv);
+    stats_.bytes += static_cast<std::uint64_t>(out) - counts[static_cast<std::size_t>(rank_)];
+    Bytes().swap(flat);
+    return all;
 }
 
 // NBX (Hoefler, Siebert, Lumsdaine 2010): synchronous sends complete only

@@ -121,6 +121,10 @@ public:
     void broadcast(Bytes& bytes, int root) const;
     // out[r] goes to process r; returns what every process sent here, in rank order.
     std::vector<Bytes> all_to_all(const std::vector<Bytes>& out) const;
+    // The same from one buffer: counts[r] bytes of `flat` (in rank order)
+    // to process r; returns what arrived, concatenated in rank order, `flat`
+    // freed first.
+    Bytes all_to_all(Bytes flat, const std::vector<std::size_t>& counts) const;
 
     // Sends out[dest] to each dest; returns what every other process sent
     // here, sorted by source rank. Partners need not be known in advance.
@@ -176,6 +180,7 @@ private:
     // each message matched here.
     template <class Receive>
     void nbx(const std::vector<Message>& out, int call_tag, Receive receive) const;
+    Bytes exchange_all(Bytes flat, const std::vector<std::size_t>& counts, std::vector<int>& recv) const;
     // Waits until `since` + the injected latency (now_seconds' clock).
     void hold_until(double since) const;
     int rank_ = 0, size_ = 1;

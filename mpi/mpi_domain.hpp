@@ -46,6 +46,9 @@ public:
     std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const override {
         return comm_.all_to_all(out);
     }
+    std::vector<char> all_to_all(std::vector<char> flat, const std::vector<std::size_t>& counts) const override {
+        return comm_.all_to_all(std::move(flat), counts);
+    }
     std::vector<std::vector<char>> sparse_to(const std::vector<std::vector<char>>& out, int channel) const override;
     void h5_parallel(std::int64_t file_access, std::int64_t transfer) const override {
         comm_.h5_parallel(file_access, transfer);

@@ -70,6 +70,11 @@ public:
     virtual std::vector<std::vector<char>> gather(const std::vector<char>& mine) const;
     // out[r] goes to process r; returns what every process sent here, in rank order.
     virtual std::vector<std::vector<char>> all_to_all(const std::vector<std::vector<char>>& out) const;
+    // The same from one buffer: the first counts[0] bytes of `flat` go to
+    // process 0, the next counts[1] to process 1, ...; returns what every
+    // process sent here, concatenated in rank order. `flat` is freed before
+    // it returns, so that a large exchange holds at most its two buffers.
+    virtual std::vector<char> all_to_all(std::vector<char> flat, const std::vector<std::size_t>& counts) const;
     // The same for traffic between few processes: only the non-empty out[r]
     // travel, and no process learns the others' counts first (a sparse,
     // non-blocking-barrier exchange: the messages sent plus a barrier's

@@ -73,14 +73,16 @@ inline std::size_t block_of(const std::vector<std::uint64_t>& ends, std::uint32_
 // Rows of `width` doubles for the bodies of this process's id block (count x
 // width, in gid order); row(local, out) fills an owned body's row. Every row
 // of the block is filled, since every body has one owner. One process fills
-// its rows in place; several pack (gid, row) records per destination, sized
-// exactly, and exchange them in one all-to-all.
+// its rows in place; several pack (gid, row) records into one buffer in
+// destination order, sized exactly, and exchange it in one all-to-all, the
+// rows made only once the records sent are freed (at most two of the three
+// buffers, each about a row a body, are held at once).
 template <class Row>
 std::vector<double> block_rows(const Collectives& domain, const World& world, int width, Row row) {
     const std::size_t w = static_cast<std::size_t>(width);
     const IdBlock mine = id_block(world.global_body_count(), domain.rank(), domain.ranks());
-    std::vector<double> rows(mine.count * w, std::nan(""));
     if (!domain.distributed()) {
+        std::vector<double> rows(mine.count * w, std::nan(""));
         for (std::size_t i = 0; i < world.body_count(); ++i) row(i, rows.data() + world.gid(i) * w);
         return rows;
     }
@@ -90,31 +92,29 @@ std::vector<double> block_rows(const Collectives& domain, const World& world, in
         ends[static_cast<std::size_t>(r)] = b.first + b.count;
     }
     const std::size_t rec = sizeof(std::uint32_t) + w * sizeof(double);
-    std::vector<std::size_t> fill(ends.size(), 0);
+    std::vector<std::size_t> counts(ends.size(), 0);
     for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (!world.ghost(i)) fill[block_of(ends, world.gid(i))] += rec;
+        if (!world.ghost(i)) counts[block_of(ends, world.gid(i))] += rec;
     }
-    std::vector<std::vector<char>> out(ends.size());
-    for (std::size_t r = 0; r < ends.size(); ++r) {
-        out[r].resize(fill[r]);
-        fill[r] = 0;  // from here: where the next record goes
-    }
+    std::vector<std::size_t> fill(ends.size(), 0);  // where each destination's next record goes
+    for (std::size_t r = 1; r < ends.size(); ++r) fill[r] = fill[r - 1] + counts[r - 1];
+    std::vector<char> flat(fill.back() + counts.back());
     std::vector<double> buf(w);
     for (std::size_t i = 0; i < world.body_count(); ++i) {
         if (world.ghost(i)) continue;
         const std::uint32_t gid = world.gid(i);
         const std::size_t to = block_of(ends, gid);
         row(i, buf.data());
-        std::memcpy(out[to].data() + fill[to], &gid, sizeof gid);
-        std::memcpy(out[to].data() + fill[to] + sizeof gid, buf.data(), w * sizeof(double));
+        std::memcpy(flat.data() + fill[to], &gid, sizeof gid);
+        std::memcpy(flat.data() + fill[to] + sizeof gid, buf.data(), w * sizeof(double));
         fill[to] += rec;
     }
-    for (const auto& part : domain.all_to_all(out)) {
-        for (std::size_t at = 0; at + rec <= part.size(); at += rec) {
-            std::uint32_t gid;
-            std::memcpy(&gid, part.data() + at, sizeof gid);
-            std::memcpy(rows.data() + (gid - mine.first) * w, part.data() + at + sizeof gid, w * sizeof(double));
-        }
+    const std::vector<char> in = domain.all_to_all(std::move(flat), counts);  // the records sent, freed
+    std::vector<double> rows(mine.count * w, std::nan(""));
+    for (std::size_t at = 0; at + rec <= in.size(); at += rec) {
+        std::uint32_t gid;
+        std::memcpy(&gid, in.data() + at, sizeof gid);
+        std::memcpy(rows.data() + (gid - mine.first) * w, in.data() + at + sizeof gid, w * sizeof(double));
     }
     return rows;
 }
