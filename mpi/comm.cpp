@@ -352,13 +352,6 @@ void io_check(int rc, const std::string& path, const char* what) {
     if (bad) throw OutputError(path + ": " + what + " failed on at least one process");
 }
 
-// `tail` at `at`, collectively: whole MiB as one element each, then the
-// rest, so that a tail past 2 GiB (an int count of bytes) is written whole.
-
-}  // namespace
-
-namespace {
-
 // Records [first, first + n) of `f` through a view of their places and one
 // collective write (n may be 0: this process then takes part with nothing).
 int write_records(MPI_File fh, MPI_Datatype rec, const FilePieces& f, std::size_t first, std::size_t n, char* piece) {
@@ -376,25 +369,16 @@ int write_records(MPI_File fh, MPI_Datatype rec, const FilePieces& f, std::size_
     return rc;
 }
 
-// Every process's tail after the previous ranks' tails, a piece a round, as
-// many rounds on every process as the longest tail needs.
-int write_tails(MPI_File fh, const FilePieces& f, std::vector<char>& piece) {
-    long long mine = static_cast<long long>(f.tail_count * f.tail_record), before = 0;
-    MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-    int rank = 0;
-    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    if (rank == 0) before = 0;
-    unsigned long long rounds = (f.tail_count + f.piece - 1) / f.piece;
-    MPI_Allreduce(MPI_IN_PLACE, &rounds, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+// This process's tail from `at` (after the previous ranks' tails), a piece
+// a round for `rounds` rounds (every process's count: the longest tail's).
+int write_tails(MPI_File fh, const FilePieces& f, MPI_Offset at, std::uint64_t rounds, std::vector<char>& piece) {
     piece.resize(std::max(piece.size(), std::min(f.tail_count, f.piece) * f.tail_record));
     int rc = MPI_File_set_view(fh, 0, MPI_BYTE, MPI_BYTE, "native", MPI_INFO_NULL);
-    for (unsigned long long r = 0; r < rounds; ++r) {
-        const std::size_t first = std::min(f.tail_count, static_cast<std::size_t>(r) * f.piece);
-        const std::size_t n = std::min(f.tail_count - first, f.piece);
+    for (std::uint64_t r = 0; r < rounds; ++r) {
+        const auto [first, n] = piece_of_round(r, f.tail_count, f.piece);
         if (n > 0) f.pack_tail(first, n, piece.data());
-        const MPI_Offset at = static_cast<MPI_Offset>(f.tail_at) + before + static_cast<MPI_Offset>(first * f.tail_record);
-        const int rr = MPI_File_write_at_all(fh, at, piece.data(), static_cast<int>(n * f.tail_record), MPI_BYTE,
-                                             MPI_STATUS_IGNORE);
+        const int rr = MPI_File_write_at_all(fh, at + static_cast<MPI_Offset>(first * f.tail_record), piece.data(),
+                                             static_cast<int>(n * f.tail_record), MPI_BYTE, MPI_STATUS_IGNORE);
         if (rc == MPI_SUCCESS) rc = rr;
     }
     return rc;
@@ -415,17 +399,19 @@ void Comm::write_file(const std::string& path, const FilePieces& f) const {
     MPI_Datatype rec;
     MPI_Type_contiguous(static_cast<int>(f.record), MPI_BYTE, &rec);
     MPI_Type_commit(&rec);
-    std::uint64_t rounds = (f.gids.size() + f.piece - 1) / f.piece;
-    max(&rounds, 1);  // every process in every round's collective write
+    std::uint64_t rounds[2] = {(f.gids.size() + f.piece - 1) / f.piece, (f.tail_count + f.piece - 1) / f.piece};
+    max(rounds, 2);  // every process in every round's collective write
     std::vector<char> piece(std::max<std::size_t>(1, std::min(f.gids.size(), f.piece) * f.record));  // reused by the tails
     int rc2 = MPI_SUCCESS;
-    for (std::uint64_t r = 0; r < rounds; ++r) {
-        const std::size_t first = std::min(f.gids.size(), static_cast<std::size_t>(r) * f.piece);
-        const std::size_t n = std::min(f.gids.size() - first, f.piece);
+    for (std::uint64_t r = 0; r < rounds[0]; ++r) {
+        const auto [first, n] = piece_of_round(r, f.gids.size(), f.piece);
         const int rr = write_records(fh, rec, f, first, n, piece.data());
         if (rc2 == MPI_SUCCESS) rc2 = rr;
     }
-    const int rc3 = write_tails(fh, f, piece);
+    long long mine = static_cast<long long>(f.tail_count * f.tail_record), before = 0;
+    MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    if (rank_ == 0) before = 0;
+    const int rc3 = write_tails(fh, f, static_cast<MPI_Offset>(f.tail_at) + before, rounds[1], piece);
     MPI_Type_free(&rec);
     const int rc5 = MPI_File_sync(fh);  // on the disk before the caller renames the file into place
     const int rc4 = MPI_File_close(&fh);

@@ -32,29 +32,29 @@ bool write_at(int fd, const char* data, std::size_t n, std::uint64_t at) {
 }
 
 // The records a piece at a time, each run of consecutive ids in a piece in
-// one write, then the tail a piece at a time; then fsync, so that the bytes are on the disk before the
-// caller renames the file into place.
+// one write, then the tail a piece at a time; then fsync, so that the bytes
+// are on the disk before the caller renames the file into place.
 void Collectives::write_file(const std::string& path, const FilePieces& f) const {
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) throw OutputError(path + ": cannot open for writing (" + std::strerror(errno) + ")");
     bool ok = write_at(fd, f.head.data(), f.head.size(), 0);
     std::vector<char> piece(std::min(f.gids.size(), f.piece) * f.record);
-    for (std::size_t first = 0; ok && first < f.gids.size(); first += f.piece) {
-        const std::size_t end = std::min(f.gids.size(), first + f.piece);
-        f.pack(first, end - first, piece.data());
-        for (std::size_t i = first; ok && i < end;) {
+    each_piece(f.gids.size(), f.piece, [&](std::size_t first, std::size_t n) {
+        if (!ok) return;
+        f.pack(first, n, piece.data());
+        for (std::size_t i = first; ok && i < first + n;) {
             std::size_t j = i + 1;
-            while (j < end && f.gids[j] == f.gids[j - 1] + 1) ++j;
+            while (j < first + n && f.gids[j] == f.gids[j - 1] + 1) ++j;
             ok = write_at(fd, piece.data() + (i - first) * f.record, (j - i) * f.record, f.records_at + f.gids[i] * f.record);
             i = j;
         }
-    }
+    });
     piece.resize(std::min(f.tail_count, f.piece) * f.tail_record);
-    for (std::size_t first = 0; ok && first < f.tail_count; first += f.piece) {
-        const std::size_t n = std::min(f.tail_count - first, f.piece);
+    each_piece(f.tail_count, f.piece, [&](std::size_t first, std::size_t n) {
+        if (!ok) return;
         f.pack_tail(first, n, piece.data());
         ok = write_at(fd, piece.data(), n * f.tail_record, f.tail_at + first * f.tail_record);
-    }
+    });
     ok = ok && ::fsync(fd) == 0;
     const int err = errno;
     ok = (::close(fd) == 0) && ok;

@@ -11,9 +11,11 @@
 // messages); H5MD snapshots go through all_to_all (each process writes a
 // block of ids), and the step's bulk traffic through the Decomposition.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "util/exact_sum.hpp"
@@ -44,6 +46,19 @@ struct FilePieces {
     Pack pack_tail;
     std::size_t piece = kPieceRecords;  // records (or tail records) a piece
 };
+
+// use(first, n) for each piece of `count` records, `piece` at a time.
+template <class Use>
+void each_piece(std::size_t count, std::size_t piece, Use use) {
+    for (std::size_t first = 0; first < count; first += piece) use(first, std::min(count - first, piece));
+}
+
+// The first record and the records of round `r` of `count` records, `piece` a
+// round (none in a round past the last: a process taking part with nothing).
+inline std::pair<std::size_t, std::size_t> piece_of_round(std::uint64_t r, std::size_t count, std::size_t piece) {
+    const std::size_t first = std::min<std::uint64_t>(count, r * piece);
+    return {first, std::min(count - first, piece)};
+}
 
 // `n` bytes at `at` of file `fd`, whole (pwrite may write less); false on an error.
 bool write_at(int fd, const char* data, std::size_t n, std::uint64_t at);

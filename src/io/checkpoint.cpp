@@ -193,9 +193,8 @@ class Xxh3Stream {
 public:
     Xxh3Stream() : state_(XXH3_createState(), XXH3_freeState) { XXH3_64bits_reset(state_.get()); }
     void add(const char* data, std::size_t n) { XXH3_64bits_update(state_.get(), data, n); }
-    std::string hex() const { return hex64(XXH3_64bits_digest(state_.get())); }
-
     std::uint64_t digest() const { return XXH3_64bits_digest(state_.get()); }
+    std::string hex() const { return hex64(digest()); }
 
 private:
     std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
@@ -205,11 +204,10 @@ private:
 std::uint64_t tail_xxh3(const FilePieces& f) {
     Xxh3Stream h;
     std::vector<char> piece(std::min(f.tail_count, f.piece) * f.tail_record);
-    for (std::size_t first = 0; first < f.tail_count; first += f.piece) {
-        const std::size_t n = std::min(f.tail_count - first, f.piece);
+    each_piece(f.tail_count, f.piece, [&](std::size_t first, std::size_t n) {
         f.pack_tail(first, n, piece.data());
         h.add(piece.data(), n * f.tail_record);
-    }
+    });
     return h.digest();
 }
 
