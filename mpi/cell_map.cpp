@@ -19,8 +19,10 @@ void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, i
     tree_ = CutTree();
     rank_of_.clear();
     owner_cache_.clear();
-    interior_cache_.clear();
-    around_cache_.clear();
+    cells_.clear();
+    around_.clear();
+    around_.shrink_to_fit();
+    alone_.clear();
     holder_lists_.clear();
 }
 
@@ -33,8 +35,10 @@ void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
     tree_ = std::move(tree);
     rank_of_ = std::move(rank_of);
     owner_cache_.clear();
-    interior_cache_.clear();
-    around_cache_.clear();
+    cells_.clear();
+    around_.clear();
+    around_.shrink_to_fit();
+    alone_.clear();
     holder_lists_.clear();
 }
 
@@ -73,10 +77,10 @@ int CellMap::owner(std::uint64_t cell) const {
     const std::uint64_t key = block_of(cell, edge_);
     const int o = mapped_owner(key);
     if (o >= 0) return o;
-    const auto it = owner_cache_.find(key);
-    if (it != owner_cache_.end()) return it->second;
+    const std::uint32_t known = owner_cache_.find(key);
+    if (known != CellCache::kNone) return static_cast<int>(known);
     const int n = nearest_owner(key);
-    owner_cache_.emplace(key, n);
+    owner_cache_.add(key, static_cast<std::uint32_t>(n));
     return n;
 }
 
@@ -86,24 +90,34 @@ const std::vector<int>& CellMap::interned(std::vector<int> h) const {
     return *holder_lists_.insert(std::move(h)).first;
 }
 
+const std::vector<int>& CellMap::alone(int owner) const {
+    const auto o = static_cast<std::size_t>(owner);
+    if (alone_.size() <= o) alone_.resize(o + 1, nullptr);
+    if (!alone_[o]) alone_[o] = &interned({owner});
+    return *alone_[o];
+}
+
 const std::vector<int>& CellMap::holders(std::uint64_t key, std::uint8_t sides) const {
-    const auto in = interior_cache_.find(key);
-    if (in != interior_cache_.end()) return *in->second;  // most cells: no list to build
-    auto it = around_cache_.find(key);
-    if (it == around_cache_.end()) {
+    std::uint32_t v = cells_.find(key);
+    if (v != CellCache::kNone && (v & kAround) == 0) return alone(static_cast<int>(v));  // most cells: no list to build
+    if (v == CellCache::kNone) {
         std::array<int, 27> a{};
         for (int j = 0; j < 27; ++j) a[static_cast<std::size_t>(j)] = owner(CellSpace::neighbour(key, j / 9 - 1, j / 3 % 3 - 1, j % 3 - 1));
         if (std::all_of(a.begin(), a.end(), [&a](int o) { return o == a[0]; })) {
-            return *interior_cache_.emplace(key, &interned({a[0]})).first->second;
+            cells_.add(key, static_cast<std::uint32_t>(a[0]));
+            return alone(a[0]);
         }
-        it = around_cache_.emplace(key, a).first;
+        v = kAround | static_cast<std::uint32_t>(around_.size());
+        around_.push_back(a);
+        cells_.add(key, v);
     }
+    const std::array<int, 27>& around = around_[v & ~kAround];
     // Neighbour d of the cell is reached when every axis with d_a = -1 has
     // its lower side in `sides` and every axis with d_a = +1 its upper one.
     const auto reached = [sides](int d, int axis) { return d == 0 || ((sides >> (2 * axis + (d > 0 ? 1 : 0))) & 1); };
     std::vector<int> h;
     for (int j = 0; j < 27; ++j) {
-        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(it->second[static_cast<std::size_t>(j)]);
+        if (reached(j / 9 - 1, 0) && reached(j / 3 % 3 - 1, 1) && reached(j % 3 - 1, 2)) h.push_back(around[static_cast<std::size_t>(j)]);
     }
     return interned(std::move(h));
 }

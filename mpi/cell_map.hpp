@@ -23,14 +23,15 @@
 // (partition.hpp: kGatherUnits) the tree replaces it, whose lookups descend
 // log2(ranks) cuts. The 27 owners around a cell are cached for the cells
 // this process meets (its own and its neighbours', a local size) where more
-// than one rank owns them, and each distinct list of holders is kept once.
+// than one rank owns them, one owner for the others (cell_cache.hpp: 16 to
+// 32 bytes a cell), and each distinct list of holders is kept once.
 #pragma once
 #include <array>
 #include <cstdint>
 #include <set>
-#include <unordered_map>
 #include <vector>
 
+#include "cell_cache.hpp"
 #include "cut_tree.hpp"
 
 namespace parode::mpi {
@@ -64,13 +65,16 @@ private:
     bool by_tree_ = false;
     CutTree tree_;
     std::vector<int> rank_of_;  // per part of tree_
-    mutable std::unordered_map<std::uint64_t, int> owner_cache_;
+    mutable CellCache owner_cache_;  // unmapped blocks met: their nearest owner
     const std::vector<int>& interned(std::vector<int> h) const;
-    // Per cell met: the holders of all its bodies when one rank owns all 27
-    // cells around it (an interior cell, most of them: 8 bytes kept), else
-    // the 27 owners in (x, y, z) offset order.
-    mutable std::unordered_map<std::uint64_t, const std::vector<int>*> interior_cache_;
-    mutable std::unordered_map<std::uint64_t, std::array<int, 27>> around_cache_;
+    const std::vector<int>& alone(int owner) const;  // the interned list {owner}
+    // Per cell met: its one owner when one rank owns all 27 cells around it
+    // (an interior cell, most of them), else kAround | the index of its 27
+    // owners, in (x, y, z) offset order, in around_.
+    static constexpr std::uint32_t kAround = 0x80000000u;
+    mutable CellCache cells_;
+    mutable std::vector<std::array<int, 27>> around_;
+    mutable std::vector<const std::vector<int>*> alone_;  // per rank, once met
     mutable std::set<std::vector<int>> holder_lists_;
 };
 

@@ -197,6 +197,55 @@ TEST(CellMap, HoldersAreTheOwnersAround) {
     }
 }
 
+// The cache of cells met keeps every entry as it grows (from 64 slots to
+// 32,768 here, each growth placing every entry again): keys that share a
+// home slot (neighbouring cells), values found, absent keys not, nothing
+// after clear. Red when a growth drops or misplaces entries.
+TEST(CellCache, KeepsEveryEntryAsItGrows) {
+    CellCache c;
+    SplitMix64 rng(11);
+    std::vector<std::uint64_t> keys;
+    for (int i = 0; i < 12000; ++i) {
+        keys.push_back(i % 2 ? key_of(i % 40, i / 40 % 20, i / 800) : rng.next() >> 4);
+        if (c.find(keys.back()) != CellCache::kNone) {
+            keys.pop_back();
+            continue;
+        }
+        c.add(keys.back(), static_cast<std::uint32_t>(keys.size()));
+    }
+    EXPECT_EQ(c.size(), keys.size());
+    for (std::size_t i = 0; i < keys.size(); ++i) ASSERT_EQ(c.find(keys[i]), i + 1) << i;
+    EXPECT_EQ(c.find(key_of(41, 0, 0)), CellCache::kNone);
+    c.clear();
+    EXPECT_EQ(c.find(keys[0]), CellCache::kNone);
+    EXPECT_EQ(c.size(), 0u);
+}
+
+// Holders asked again, of many cells (the cache grown several times), and
+// after a new partition: the same lists as a map that never met the cells.
+TEST(CellMap, CachedHoldersAreThoseOfAFreshMap) {
+    CellMap m = two_halves();
+    std::vector<std::vector<int>> first;
+    for (int round = 0; round < 2; ++round) {
+        std::size_t n = 0;
+        for (int x = -3; x < 13; ++x) {
+            for (int y = -3; y < 40; ++y) {
+                for (int z = -3; z < 4; ++z) {
+                    const std::uint8_t sides = static_cast<std::uint8_t>((x * 7 + y * 3 + z) & 63);
+                    const std::vector<int>& h = m.holders(key_of(x, y, z), sides);
+                    if (round == 0) first.push_back(h);
+                    else ASSERT_EQ(h, first[n]) << x << " " << y << " " << z;
+                    ++n;
+                }
+            }
+        }
+    }
+    const CellMap fresh = two_halves();
+    EXPECT_EQ(fresh.holders(key_of(4, 1, 0), CellSpace::kAllSides), m.holders(key_of(4, 1, 0), CellSpace::kAllSides));
+    m = two_halves();  // a new partition drops what was met
+    EXPECT_EQ(m.holders(key_of(7, 1, 0), CellSpace::kAllSides), (std::vector<int>{1}));
+}
+
 // Cells and blocks around (1000, 1000, 1000): no coordinate wraps.
 // A body's holders are the owners of every cell within its reach and of no
 // cell beyond it on some axis: on a lattice where each cell has its own rank,

@@ -475,13 +475,14 @@ void ContactSolver::sweep(int passes, bool warm) {
 // body is touched by at most one cell of a colour); interior cells touch no
 // body another process holds, so they are not listed.
 void ContactSolver::plan_exchange() {
+    static_assert(kColours < 256, "a colour's mark is a byte");
     touched_.resize(kColours);
     stamp_.assign(hot_.size(), 0);
     const auto& order = layout_.order();
     for (int c = 0; c < kColours; ++c) {
         auto& list = touched_[static_cast<std::size_t>(c)];
         list.clear();
-        const auto mark = static_cast<std::uint32_t>(c + 1);
+        const auto mark = static_cast<std::uint8_t>(c + 1);  // kColours + 1 fits a byte
         auto add = [&](std::int32_t s) {
             if (s < 0 || stamp_[static_cast<std::size_t>(s)] == mark) return;
             stamp_[static_cast<std::size_t>(s)] = mark;

@@ -261,7 +261,7 @@ private:
     std::vector<std::uint32_t> warm_;                // contact -> index into previous_, or kNone
     CorrectionExchange* exchange_ = nullptr;
     std::vector<std::vector<std::uint32_t>> touched_;  // per colour, for the exchange
-    std::vector<std::uint32_t> stamp_;                 // per body: last colour + 1 that listed it
+    std::vector<std::uint8_t> stamp_;                  // per body: last colour + 1 that listed it (at most 8)
     std::vector<std::uint8_t> shared_;                 // per body: another process holds a copy
     Substages times_;
     ColourTimes colour_times_;
