@@ -198,7 +198,7 @@ TEST(CellMap, HoldersAreTheOwnersAround) {
 }
 
 // The cache of cells met keeps every entry as it grows (from 64 slots to
-// 32,768 here, each growth placing every entry again): keys that share a
+// 16,384 here, each growth placing every entry again): keys that share a
 // home slot (neighbouring cells), values found, absent keys not, nothing
 // after clear. Red when a growth drops or misplaces entries.
 TEST(CellCache, KeepsEveryEntryAsItGrows) {
