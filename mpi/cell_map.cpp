@@ -18,12 +18,7 @@ void CellMap::assign(std::vector<std::uint64_t> keys, std::vector<int> owners, i
     by_tree_ = false;
     tree_ = CutTree();
     rank_of_.clear();
-    owner_cache_.clear();
-    cells_.clear();
-    around_.clear();
-    around_.shrink_to_fit();
-    alone_.clear();
-    holder_lists_.clear();
+    forget_cells();
 }
 
 void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
@@ -34,12 +29,7 @@ void CellMap::assign(CutTree tree, std::vector<int> rank_of) {
     by_tree_ = true;
     tree_ = std::move(tree);
     rank_of_ = std::move(rank_of);
-    owner_cache_.clear();
-    cells_.clear();
-    around_.clear();
-    around_.shrink_to_fit();
-    alone_.clear();
-    holder_lists_.clear();
+    forget_cells();
 }
 
 int CellMap::mapped_owner(std::uint64_t key) const {
@@ -70,6 +60,16 @@ int CellMap::nearest_owner(std::uint64_t key) const {
         if (who >= 0) return who;
     }
     return static_cast<int>(SplitMix64::mix(key) % static_cast<std::uint64_t>(ranks_));
+}
+
+// What the caches hold belongs to the partition just replaced.
+void CellMap::forget_cells() {
+    owner_cache_.clear();
+    cells_.clear();
+    around_.clear();
+    around_.shrink_to_fit();
+    alone_.clear();
+    holder_lists_.clear();
 }
 
 int CellMap::owner(std::uint64_t cell) const {

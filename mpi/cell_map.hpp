@@ -57,6 +57,7 @@ public:
 private:
     int mapped_owner(std::uint64_t key) const;  // -1 when not mapped
     int nearest_owner(std::uint64_t key) const;
+    void forget_cells();  // empties every cache of cells met
 
     std::vector<std::uint64_t> keys_;
     std::vector<int> owners_;
