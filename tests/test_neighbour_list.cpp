@@ -32,7 +32,7 @@ std::uint64_t reference_digest(dSpaceID space) {
 // the list was built.
 void creep(World& w, int call) {
     for (std::size_t i = 0; i < w.body_count(); ++i) {
-        dBodyID b = dGeomGetBody(w.geoms()[i]);
+        dBodyID b = w.body(i);
         const dReal* p = dBodyGetPosition(b);
         const double k = static_cast<double>(i) + 0.37 * call;
         dBodySetPosition(b, p[0] + 0.004 * std::sin(k), p[1] + 0.004 * std::cos(1.3 * k), p[2] - 0.002);
@@ -148,6 +148,50 @@ TEST(NeighbourList, BodiesLeavingAndArrivingArePatchedIn) {
         EXPECT_EQ(c.patches, static_cast<std::size_t>(call < 6 ? call : call - 1)) << "call " << call;
         EXPECT_EQ(c.merges_sorted, 0u) << "call " << call;
     }
+}
+
+// Ghosts without ODE geoms (World::set_ghost_geoms(false), as a distributed
+// run's pipeline sets it for the grid): while bodies leave, arrive as ghosts
+// or owned, and turn from one to the other, the grid's contacts equal those
+// of a world whose ghosts keep their geoms, which ODE's own space gives; the
+// space holds no geom of a ghost, and a ghost turned owned collides again.
+TEST(NeighbourList, GhostsWithoutGeomsGiveTheContactsOfGhostsWithGeoms) {
+    const Scene sc = test::repo_scene("jobs/scenes/tennis.toml", {"catoms.count=8000"});
+    std::vector<std::uint32_t> gids, later;
+    for (std::uint32_t i = 0; i < 8000; ++i) (i % 4 ? gids : later).push_back(static_cast<std::uint32_t>((std::uint64_t{i} * 7919) % 8000));
+    World with(sc, SpaceKind::Hash, &gids), without(sc, SpaceKind::Hash, &gids);
+    for (std::size_t i = 0; i < gids.size(); i += 5) with.set_ghost(i, true);
+    for (std::size_t i = 0; i < gids.size(); i += 5) without.set_ghost(i, true);
+    without.set_ghost_geoms(false);  // the ghosts held give theirs up at once
+    omp::CollideEngine e;
+    e.set_threads(2);
+    e.set_geoms(without.space(), &without.geoms());
+    e.set_sphere_bodies(without.sphere_bodies());
+    std::size_t next = 0;
+    for (int call = 0; call < 6; ++call) {
+        for (World* w : {&with, &without}) {
+            for (std::size_t k = 0; call > 0 && k < 40; ++k) w->remove_body((k * 131 + static_cast<std::size_t>(call)) % w->body_count());
+            for (std::size_t k = 0; call > 0 && k < 60 && next + k < later.size(); ++k) w->add_body(later[next + k], k % 3 == 0);
+            for (std::size_t k = 0; call > 0 && k < 30; ++k) {
+                const std::size_t i = (k * 257 + static_cast<std::size_t>(call) * 11) % w->body_count();
+                w->set_ghost(i, !w->ghost(i));
+            }
+            creep(*w, call);
+        }
+        next += call > 0 ? 60 : 0;
+        std::size_t ghosts = 0;
+        for (std::size_t i = 0; i < without.body_count(); ++i) ghosts += without.ghost(i) ? 1 : 0;
+        ASSERT_GT(ghosts, 1000u);
+        EXPECT_EQ(without.geomless(), ghosts) << "call " << call;
+        EXPECT_EQ(static_cast<std::size_t>(dSpaceGetNumGeoms(without.space())) + ghosts, without.geoms().size()) << "call " << call;
+        ContactBuffer out;
+        e.collide(without.space(), 4, out);
+        ASSERT_EQ(contact_digest(out), reference_digest(with.space())) << "call " << call;
+        ASSERT_GT(out.size(), 5000u);
+    }
+    const Scene buggy = test::repo_scene("jobs/scenes/buggy.toml");
+    World boxes(buggy, SpaceKind::Simple);
+    EXPECT_THROW(boxes.set_ghost_geoms(false), std::logic_error);  // a box among the bodies: no sphere hint
 }
 
 // A table out of id order (as a rank's: owned bodies and ghosts in local

@@ -14,6 +14,8 @@
 #include "omp/runtime/task_split.hpp"
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 #include "omp/grid/cell_grid.hpp"
 #include "omp/grid/geom_info.hpp"
@@ -131,9 +133,11 @@ struct CollideEngine::Impl {
     }
     Lane& lane() { return lanes[static_cast<std::size_t>(thread_index())]; }
     // Whether `space` is the one set_geoms describes, still holding just those.
+    // Ghosts without a geom are in the list (as nulls), not in the space.
     bool is_flat(dSpaceID space) const {
+        const std::size_t missing = spheres ? spheres->missing() : 0;
         return space == flat_space && flat_geoms &&
-               flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space));
+               flat_geoms->size() == static_cast<std::size_t>(dSpaceGetNumGeoms(space)) + missing;
     }
 
     void start(int max, int team);
@@ -189,6 +193,10 @@ PairInputs CollideEngine::Impl::pair_inputs() const {
 void CollideEngine::Impl::read_space(dSpaceID space) {
     for (Lane& l : lanes) store_fast_runs(l, fast_source());
     const bool flat = is_flat(space);
+    if (!flat && space == flat_space && spheres && spheres->missing() > 0) {
+        throw std::logic_error("grid collide: World's space no longer holds the geoms set_geoms named, and " +
+                               std::to_string(spheres->missing()) + " ghosts have no geom to be read from it");
+    }
     const std::uint32_t any = flat ? read_geoms(*flat_geoms, infos, spheres) : read_space_pipelined(space, list, infos);
     if (any & kStaleAabb) refresh_stale(infos);
     if (any & kUser) use_reference = true;

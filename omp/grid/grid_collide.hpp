@@ -122,6 +122,7 @@ public:
     void set_geoms(dSpaceID space, const std::vector<dGeomID>* geoms) override { engine_.set_geoms(space, geoms); }
     void set_sphere_bodies(const SphereBodies* spheres) override { engine_.set_sphere_bodies(spheres); }
     bool reads_sphere_poses() const override { return true; }  // read_geom (geom_info.hpp)
+    bool spheres_from_hint() const override { return true; }   // read_geoms, hinted_sphere
     bool set_ghost_test(const GhostTest* test) override {
         engine_.set_ghost_test(test);
         return true;

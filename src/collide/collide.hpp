@@ -27,7 +27,10 @@ namespace parode {
 // radius radius(id), and the bits category[g], collide[g] with g = (*ghost)[i].
 // A backend may then read such a geom's body position alone from ODE. The
 // vectors are the owner's and must outlive the hint; their contents may change
-// between calls (bodies added, removed, turned into ghosts).
+// between calls (bodies added, removed, turned into ghosts). *geomless of the
+// geoms below bodies->size() may be null (ghosts without a geom,
+// World::set_ghost_geoms) and are then not in the space: only a backend whose
+// spheres_from_hint() is true may be given such a list.
 struct SphereBodies {
     const std::vector<dBodyID>* bodies = nullptr;
     const std::vector<std::uint32_t>* ids = nullptr;
@@ -35,6 +38,8 @@ struct SphereBodies {
     std::vector<double> body_radius;  // ids below its size
     double catom_radius = 0;          // every other id
     unsigned long category[2] = {0, 0}, collide[2] = {0, 0};
+    const std::size_t* geomless = nullptr;  // null geoms among the bodies' (none when null)
+    std::size_t missing() const { return geomless ? *geomless : 0; }
     double radius(std::uint32_t id) const { return id < body_radius.size() ? body_radius[id] : catom_radius; }
 };
 
@@ -77,6 +82,11 @@ public:
     // position and radius, never from ODE's cached AABB: sphere bodies may
     // then move without ODE's spaces being told every step (World::defer_moves).
     virtual bool reads_sphere_poses() const { return false; }
+    // True when, given set_geoms and set_sphere_bodies, the backend reads
+    // every body sphere of that space from the hint alone and never touches
+    // a body geom's record: a ghost then needs no ODE geom at all
+    // (World::set_ghost_geoms).
+    virtual bool spheres_from_hint() const { return false; }
     // Asks the backend to leave out of collide()'s output the contacts `test`
     // drops (null: none), before it writes them; false when it cannot, and
     // the caller then removes them from the output itself.

@@ -47,6 +47,8 @@ Pipeline::Pipeline(const Scene& scene, const RunOptions& options)
         backend_drops_ghosts_ = backend_->set_ghost_test(&ghost_test_);
     }
     world_->defer_moves(backend_->reads_sphere_poses() && world_->bodies_are_spheres());
+    // A ghost is then an ODE body alone: its geom would be read by nothing.
+    if (backend_->spheres_from_hint() && world_->sphere_bodies()) world_->set_ghost_geoms(false);
     solver_ = stages.solver.make(options.solver, scene, *exec_);
     solver_->set_exchange(domain_->corrections());
     if (checkpoint_) restore(gids);

@@ -44,6 +44,13 @@ void place_geom(dGeomID g, const Vec3& p, const Quat& q) {
     dGeomSetQuaternion(g, dq);
 }
 
+// What place_geom does to a geom's body (ODE's geom setters call these).
+void place_body(dBodyID b, const Vec3& p, const Quat& q) {
+    dBodySetPosition(b, p[0], p[1], p[2]);
+    const dQuaternion dq{q[0], q[1], q[2], q[3]};
+    dBodySetQuaternion(b, dq);
+}
+
 void set_joint_param(dJointID id, JointKind kind, int code, double value) {
     switch (kind) {
         case JointKind::Hinge2: dJointSetHinge2Param(id, code, value); break;
@@ -163,22 +170,20 @@ std::size_t World::add_body(std::uint32_t gid, bool ghost, const BodyState* stat
     const std::size_t local = bodies_.size();
     dBodyID b = dBodyCreate(world_);
     dBodySetMass(b, &mass_of(gid));  // ODE copies it: what mass_of returns, bit for bit
-    dGeomID g = make_geom(s.shape);
-    dGeomSetBody(g, b);
-    place_geom(g, s.position, s.orientation);
+    place_body(b, s.position, s.orientation);
     dBodySetLinearVel(b, s.velocity[0], s.velocity[1], s.velocity[2]);
     dBodySetAngularVel(b, s.angular_velocity[0], s.angular_velocity[1], s.angular_velocity[2]);
-    set_geom_id(g, gid);
     bodies_.push_back(b);
     gids_.push_back(gid);
     ghost_.push_back(0);
     q_in_.push_back({s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3]});
     origin_.push_back(origin ? *origin : s.position);
     slot_.emplace_back();
-    geoms_.insert(geoms_.begin() + static_cast<std::ptrdiff_t>(local), g);
+    geoms_.insert(geoms_.begin() + static_cast<std::ptrdiff_t>(local), nullptr);
+    ++geomless_;
     map_.set(gid, static_cast<std::uint32_t>(local));
     ++owned_;
-    set_ghost(local, ghost);
+    set_ghost(local, ghost);  // gives it the geom its role needs
     if (state) set_state(local, *state);
     ++generation_;
     return local;
@@ -188,7 +193,8 @@ void World::remove_body(std::size_t local) {
     const std::size_t last = bodies_.size() - 1;
     if (!ghost_[local]) --owned_;
     map_.erase(gids_[local]);
-    dGeomDestroy(geoms_[local]);
+    if (geoms_[local]) dGeomDestroy(geoms_[local]);
+    else --geomless_;
     dBodyDestroy(bodies_[local]);
     if (local != last) {
         bodies_[local] = bodies_[last];
@@ -221,9 +227,42 @@ void World::set_ghost(std::size_t local, bool ghost) {
         }
     }
     ghost_[local] = ghost ? 1 : 0;
-    dGeomID g = geoms_[local];
+    fit_geom(local);
+}
+
+// An owned body always has its geom; a ghost has one unless ghost_geoms_ is
+// off. A geom made for a body that has moved follows the body (dGeomSetBody
+// takes the body's pose and marks the geom moved).
+void World::fit_geom(std::size_t local) {
+    const bool ghost = ghost_[local] != 0;
+    dGeomID& g = geoms_[local];
+    if (ghost && !ghost_geoms_) {
+        if (g) {
+            dGeomDestroy(g);
+            g = nullptr;
+            ++geomless_;
+        }
+        return;
+    }
+    if (!g) {
+        g = make_geom(shape_of(gids_[local]));
+        dGeomSetBody(g, bodies_[local]);
+        set_geom_id(g, gids_[local]);
+        --geomless_;
+    }
     dGeomSetCategoryBits(g, ghost ? kGhostCategory : kDynamicCategory);
     dGeomSetCollideBits(g, ghost ? kDynamicCategory : ~0UL);
+}
+
+void World::set_ghost_geoms(bool on) {
+    if (!on && !bodies_are_spheres()) {
+        throw std::logic_error("World::set_ghost_geoms(false): a ghost without a geom collides only through "
+                               "the sphere hint, and this scene has bodies that are not spheres");
+    }
+    ghost_geoms_ = on;
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {
+        if (ghost_[i]) fit_geom(i);
+    }
 }
 
 BodyState World::state(std::size_t local) const {
@@ -339,6 +378,7 @@ void World::describe_spheres() {
     spheres_.bodies = &bodies_;
     spheres_.ids = &gids_;
     spheres_.ghost = &ghost_;
+    spheres_.geomless = &geomless_;
 }
 
 bool World::restore_state(std::size_t local, const BodyState& s, const double ode_q[4]) {
@@ -367,10 +407,14 @@ int World::material_of(std::uint32_t geom_id) const {
     return static_material_[geom_id - global_];
 }
 
+const Shape& World::shape_of(std::uint32_t gid) const {
+    return gid < scene_.bodies.size() ? scene_.bodies[gid].shape : scene_.catoms.proto.shape;
+}
+
 World::GeomShape World::geom_shape(std::uint32_t geom_id) const {
     const Shape* s = nullptr;
     if (geom_id < global_) {
-        s = geom_id < scene_.bodies.size() ? &scene_.bodies[geom_id].shape : &scene_.catoms.proto.shape;
+        s = &shape_of(geom_id);
     } else if (geom_id - global_ < scene_.statics.size()) {
         s = &scene_.statics[geom_id - global_].shape;
     } else {
