@@ -137,6 +137,7 @@ void MpiDomain::setup(World& world, std::vector<WarmImpulse>* warm) {
     comm_.sum_wrapping(&ids, 1);
     id_hash_ = ids;
     if (!partitioned_) repartition(world, warm);  // a restart: positions from the checkpoint
+    locate_all(world);
     move_bodies(world, warm);
     exchange_states(world);
 }
@@ -311,13 +312,14 @@ void MpiDomain::migrate(World& world, std::vector<WarmImpulse>* warm, long step)
 
 // Owned bodies whose cell belongs to another process go there, with their
 // warm-start impulses; they stay here as ghosts until the next exchange
-// says whether this process still holds them.
+// says whether this process still holds them. Only the bodies locate_all
+// (just before) flagged are looked at.
 void MpiDomain::move_bodies(World& world, std::vector<WarmImpulse>* warm) {
     std::map<int, Bytes> out;
     std::vector<unsigned char> gone;  // impulses leaving with their body, sized when one does
     long sent = 0;
     for (std::size_t i = 0; i < world.body_count(); ++i) {
-        if (world.ghost(i)) continue;
+        if (!moved_[i] || world.ghost(i)) continue;
         const int to = place(world, i).owner;
         if (to == rank()) continue;
         Bytes& b = out[to];
@@ -543,6 +545,9 @@ const DomainSlot& MpiDomain::place(World& world, std::size_t i) const {
 // lookups fill caches). Entries found current are stamped; a body whose state
 // is set later (a migrant, a ghost's update) loses its stamp, and every stamp
 // lapses when exchange_states is done (the solver moves the bodies next).
+// moved_ flags, for move_bodies, every body that changed cell and every
+// owned body another process owns (a serial pass over every body there
+// cost 3.3 ms a step at 10^6 catoms on 2 ranks).
 void MpiDomain::locate_all(World& world) {
     constexpr std::size_t kPositionAhead = 16;  // bodies ahead whose position line is fetched
     next_stamp();
@@ -550,6 +555,7 @@ void MpiDomain::locate_all(World& world) {
     moved_.resize(n);
     std::uint8_t* moved = moved_.data();
     const std::uint32_t stamp = stamp_, epoch = epoch_;
+    const int me = rank();
     for_ranges(loops_, n, 4096, [&](std::size_t i0, std::size_t i1) {
         for (std::size_t i = i0; i < i1; ++i) {
             if (i + kPositionAhead < i1) __builtin_prefetch(dBodyGetPosition(world.body(i + kPositionAhead)));
@@ -558,7 +564,7 @@ void MpiDomain::locate_all(World& world) {
             std::uint8_t sides;
             const bool current = s.epoch == epoch && s.cell == cells_.key(x, reach_, sides) && s.sides == sides;
             if (current) s.stamp = stamp;
-            moved[i] = !current;
+            moved[i] = !current || (s.owner != me && !world.ghost(i));
         }
     });
     for (std::size_t i = 0; i < n; ++i) {

@@ -141,7 +141,7 @@ private:
     World* world_ = nullptr;
     std::uint32_t epoch_ = 0;                      // partitions made so far
     std::uint32_t stamp_ = 0;                      // locate_all passes made so far
-    std::vector<std::uint8_t> moved_;              // locate_all: bodies that changed cell
+    std::vector<std::uint8_t> moved_;              // locate_all: bodies that changed cell or leave
     std::vector<int> send_to_, recv_from_;         // ghost partners of this step
     std::vector<std::vector<std::uint32_t>> send_locals_, recv_locals_;
     std::size_t in_bytes_ = 0;                     // what the last ghost exchange received
