@@ -54,6 +54,13 @@ def parse_variant(text, ranks, threads):
     return v
 
 
+def later_ms(r, stage):
+    """A stage's ms a step over the steps after the first, on the slowest rank."""
+    total = r["stage_ranks"].get(stage, {}).get("max", r["stages"].get(stage, 0.0))
+    first = (r.get("first_step") or {}).get("stages", {}).get(stage, 0.0)
+    return 1e3 * (total - first) / max(r["steps"] - 1, 1)
+
+
 def run(args, v):
     with tempfile.NamedTemporaryFile(suffix=".json") as f:
         cmd = [v["parode"] or args.parode, "run", args.scene, "--set", f"catoms.count={args.catoms}", "--steps", str(args.steps),
@@ -75,6 +82,7 @@ def run(args, v):
            "solve_ms": 1e3 * r["stages"]["solve"] / steps, "hash": r["state_hash"],
            "collide_ms": 1e3 * (r["stage_ranks"]["collide"]["max"] - (r.get("first_step") or {}).get("stages", {}).get("collide", 0.0))
            / max(steps - 1, 1),
+           "migrate_ms": later_ms(r, "migrate"), "exchange_ms": later_ms(r, "exchange"),
            "colour_imbalance": par.get("colour_imbalance", 1.0),
            "wait_ms_max": 1e3 * par.get("wait_seconds", {}).get("max", 0.0) / steps,
            "wait_ms_avg": 1e3 * par.get("wait_seconds", {}).get("avg", 0.0) / steps,
@@ -90,7 +98,7 @@ def run(args, v):
 
 
 def summary(rows, names):
-    keys = ["ms_later", "ms_per_step", "solve_ms", "collide_ms", "colour_imbalance", "wait_ms_max", "wait_ms_avg",
+    keys = ["ms_later", "ms_per_step", "solve_ms", "collide_ms", "migrate_ms", "exchange_ms", "colour_imbalance", "wait_ms_max", "wait_ms_avg",
             "exchange_bytes_per_step", "edge_cut", "partition_colour_imbalance", "rss_mb_max"]
     med = {}
     for n in names:
@@ -99,11 +107,13 @@ def summary(rows, names):
         med[n]["runs"] = [round(float(r["ms_later"]), 2) for r in mine]
         med[n]["hashes"] = sorted({r["hash"] for r in mine})
     base = med[names[0]]["ms_later"]
-    lines = ["| variant | ms/step (later steps, median) | x first | solve | collide (later) | colour imbalance | "
-             "wait max | bytes/step | edge cut | partition colour imb. | MB/rank | runs |", "|" + "---|" * 12]
+    lines = ["| variant | ms/step (later steps, median) | x first | solve | collide (later) | migrate (later) | "
+             "exchange (later) | colour imbalance | wait max | bytes/step | edge cut | partition colour imb. | MB/rank | runs |",
+             "|" + "---|" * 14]
     for n in names:
         m = med[n]
         lines.append(f"| {n} | {m['ms_later']:.2f} | {m['ms_later'] / base:.3f} | {m['solve_ms']:.2f} | {m['collide_ms']:.2f} | "
+                     f"{m['migrate_ms']:.2f} | {m['exchange_ms']:.2f} | "
                      f"{m['colour_imbalance']:.3f} | {m['wait_ms_max']:.2f} | {m['exchange_bytes_per_step']:.0f} | "
                      f"{m['edge_cut']:.0f} | {m['partition_colour_imbalance']:.3f} | {m['rss_mb_max']:.0f} | "
                      f"{m['runs']} |")
