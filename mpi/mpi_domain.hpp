@@ -99,6 +99,7 @@ public:
 
     // For tests: the cell map of the last partition and what moved.
     const CellMap& cell_map() const { return map_; }
+    const std::vector<int>& partners() const { return nbrs_; }  // of the solver's exchange, ascending
     long migrations() const { return migrations_; }
     long repartitions() const { return repartitions_; }
 

@@ -4,7 +4,8 @@
 // into the other process's cells migrates there with its state bit for bit
 // and its warm-start impulses, and the old owner keeps neither; the
 // invariant check passes, and fails on every process when one process
-// claims a body it does not own; the solve's correction exchange delivers
+// claims a body it does not own; the solver's exchange partners are every
+// holder of a body held here, also one way; the solve's correction exchange delivers
 // the other's corrections and stops both processes on a message of the
 // wrong size; the collectives' sparse exchange delivers only what was sent,
 // to the call that sent it.
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -149,6 +151,35 @@ TEST(MpiDomain, MovedBodyMigratesWithStateAndImpulses) {
     }
     EXPECT_EQ(owned_everywhere(w), 512);
     EXPECT_NO_THROW(d.check_invariants(w, 1));
+}
+
+// The solver's exchange partners: every process that holds a copy of a body
+// held here, also when the copies go one way only. Here process 1 gives up
+// its bodies, so process 0 holds no ghost but still sends its boundary's
+// bodies to 1, and must hear 1's corrections of them.
+TEST(MpiDomain, PartnersAreEveryHolderOfABodyHeldHereAlsoOneWay) {
+    SlabDomain slab_run(false);
+    mpi::MpiDomain& d = slab_run.d;
+    World& w = slab_run.w;
+    ASSERT_EQ(d.ranks(), 2) << "run on two processes";
+    std::array<std::int64_t, 2> ghosts{};  // held on each process: copies of the other's bodies
+    auto count_ghosts = [&] {
+        ghosts = {0, 0};
+        for (std::size_t i = 0; i < w.body_count(); ++i) ghosts[static_cast<std::size_t>(d.rank())] += w.ghost(i) ? 1 : 0;
+        g_comm->sum(ghosts.data(), 2);
+    };
+    const std::vector<int> other{1 - d.rank()};
+    count_ghosts();
+    ASSERT_GT(ghosts[0] * ghosts[1], 0) << "both processes hold copies of the other's boundary";
+    EXPECT_EQ(d.partners(), other) << "after setup";
+    if (d.rank() == 1) {
+        for (std::size_t i = w.body_count(); i-- > 0;) w.remove_body(i);
+    }
+    d.exchange_states(w);
+    count_ghosts();
+    ASSERT_EQ(ghosts[0], 0) << "process 1 owns nothing to copy";
+    ASSERT_GT(ghosts[1], 0) << "process 0 still sends its boundary";
+    EXPECT_EQ(d.partners(), other) << "after process 1 gave up its bodies";
 }
 
 TEST(MpiDomain, InvariantCheckFailsOnEveryProcess) {
