@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 namespace parode {
 
@@ -226,18 +227,6 @@ template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
 template <class V>
 PARODE_LANE_INLINE V max(V a, V b) { return a < b ? b : a; }
-// Four blocks of four doubles transposed in registers (out[i][l] = in[l][i]):
-// two unpacks and two lane swaps a pair instead of sixteen single loads or
-// stores. Only for V = Quad.
-template <class V>
-PARODE_LANE_INLINE void transpose4(const V* in, V* out) {
-    const V t0 = __builtin_shufflevector(in[0], in[1], 0, 4, 2, 6), t1 = __builtin_shufflevector(in[0], in[1], 1, 5, 3, 7);
-    const V t2 = __builtin_shufflevector(in[2], in[3], 0, 4, 2, 6), t3 = __builtin_shufflevector(in[2], in[3], 1, 5, 3, 7);
-    out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
-    out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-    out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
-    out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
-}
 // Block `at` (4 doubles from the byte offset) of each of four records, transposed.
 // (Read through a type of the doubles' own alignment, as one 32-byte load each:
 // a memcpy was expanded as two 16-byte halves through the stack.)
@@ -246,6 +235,10 @@ struct UnalignedOf;
 template <>
 struct UnalignedOf<Quad> {
     using type = double __attribute__((vector_size(32), aligned(8), may_alias));
+};
+template <>
+struct UnalignedOf<Pair> {
+    using type = double __attribute__((vector_size(16), aligned(8), may_alias));
 };
 template <class V>
 using Unaligned = typename UnalignedOf<V>::type;
@@ -291,19 +284,65 @@ PARODE_LANE_INLINE void untranspose8(const V* v, Quad* a) {
         a[i + 4] = __builtin_shufflevector(o[i], o[i], 4, 5, 6, 7);
     }
 }
+// Four records' blocks of four doubles as four vectors of four lanes: each
+// register joins the same half of records l and l + 2 as it is loaded (a
+// 16-byte load and an insert from memory), then one unpack within the
+// 128-bit halves gives each lane vector, and back again, a half at a time.
+// No shuffle crosses the halves: a cross-half shuffle (vperm2f128) is one
+// operation on Intel but eight on AMD's first 256-bit cores (Zen 1), where
+// the 25 of a pack of four made the solve 1.03 to 1.10 x slower
+// (analysis/results/vm-amd-epyc-2c/four-lane-halves).
+template <class T>
+PARODE_LANE_INLINE Quad join_halves(const T* a, const T* b, std::size_t at) {
+    return __builtin_shufflevector(block_at<Pair>(a, at), block_at<Pair>(b, at), 0, 1, 2, 3);
+}
+template <class T>
+PARODE_LANE_INLINE void load_four(const T* const* rec, std::size_t at, Quad* out) {
+    const Quad a = join_halves(rec[0], rec[2], at), b = join_halves(rec[1], rec[3], at);
+    const Quad c = join_halves(rec[0], rec[2], at + 16), d = join_halves(rec[1], rec[3], at + 16);
+    out[0] = __builtin_shufflevector(a, b, 0, 4, 2, 6);
+    out[1] = __builtin_shufflevector(a, b, 1, 5, 3, 7);
+    out[2] = __builtin_shufflevector(c, d, 0, 4, 2, 6);
+    out[3] = __builtin_shufflevector(c, d, 1, 5, 3, 7);
+}
+// Four lane vectors written back as each record's block, a half at a time:
+// one unpack within the halves gives records 0 and 2 (1 and 3) side by side,
+// the low half stored as it is and the high half copied out of the register
+// (an extract: GCC 12 lowers a shuffle of the high half as a cross-half
+// permute first).
+template <class T>
+PARODE_LANE_INLINE void store_halves(T* lo_rec, T* hi_rec, std::size_t at, Quad q) {
+    Pair high;
+    std::memcpy(&high, reinterpret_cast<const char*>(&q) + sizeof(Pair), sizeof(Pair));
+    *reinterpret_cast<Unaligned<Pair>*>(reinterpret_cast<char*>(lo_rec) + at) = __builtin_shufflevector(q, q, 0, 1);
+    *reinterpret_cast<Unaligned<Pair>*>(reinterpret_cast<char*>(hi_rec) + at) = high;
+}
+// Records (null: not written) get their block `at` back from four lane
+// vectors; Whole = false: only its first half (v[0], v[1]; the rest of the
+// block is unchanged).
+template <bool Whole, class T>
+PARODE_LANE_INLINE void store_four(T* const* rec, std::size_t at, const Quad* v) {
+    T dummy[1];  // unused: stands in for a record not written
+    T* r[4];
+    for (int l = 0; l < 4; ++l) r[l] = rec[l] ? rec[l] : dummy;
+    store_halves(r[0], r[2], at, __builtin_shufflevector(v[0], v[1], 0, 4, 2, 6));
+    store_halves(r[1], r[3], at, __builtin_shufflevector(v[0], v[1], 1, 5, 3, 7));
+    if constexpr (Whole) {
+        store_halves(r[0], r[2], at + 16, __builtin_shufflevector(v[2], v[3], 0, 4, 2, 6));
+        store_halves(r[1], r[3], at + 16, __builtin_shufflevector(v[2], v[3], 1, 5, 3, 7));
+    }
+}
 // Block `at` of each of lanes<V>() (four or eight) records, as four vectors
-// of lanes; and four vectors of lanes as each lane's block (to_blocks).
+// of lanes; and (eight lanes) four vectors of lanes as each lane's block.
 template <class V, class T>
 PARODE_LANE_INLINE void load_blocks(const T* const* rec, std::size_t at, V* out) {
-    Quad in[lanes<V>()];
-    for (int l = 0; l < lanes<V>(); ++l) in[l] = block_at<Quad>(rec[l], at);
-    if constexpr (lanes<V>() == 8) transpose8(in, out);
-    else transpose4(in, out);
-}
-template <class V>
-PARODE_LANE_INLINE void to_blocks(const V* in, Quad* out) {
-    if constexpr (lanes<V>() == 8) untranspose8(in, out);
-    else transpose4(in, out);
+    if constexpr (lanes<V>() == 8) {
+        Quad in[8];
+        for (int l = 0; l < 8; ++l) in[l] = block_at<Quad>(rec[l], at);
+        transpose8(in, out);
+    } else {
+        load_four(rec, at, out);
+    }
 }
 // Square root lane by lane; SSE2 square roots on x86-64 (IEEE square
 // roots are correctly rounded: the same bits as std::sqrt, without its errno
@@ -376,31 +415,42 @@ PARODE_LANE_INLINE void load_lanes(const BodyRow* const* B, V* f, V& invm, V& in
     detail::load_blocks(B, 4 * sizeof(double), b);
     f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
 }
-// A body's row written back as two blocks (its invm and invi unchanged).
-template <class V>
-PARODE_LANE_INLINE void store_body4(BodyRow& B, const V& lo, const V& hi) {
-    detail::store_block(&B, 0, lo);
-    detail::store_block(&B, sizeof(V), hi);
-}
 // What four or eight lanes write back: each row's lambda (with its mu,
-// unchanged) as one block, each body's row as two (a static partner's not at
-// all).
+// unchanged) as one block, each body's row as two (its invm and invi
+// unchanged; a static partner's not at all).
 template <class V>
 PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
                                     V i1, const V* f2, V m2, V i2) {
-    using detail::Quad;
     constexpr int L = detail::lanes<V>();
+    constexpr std::size_t half = 4 * sizeof(double);
     const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
-    Quad out[L], lo1[L], hi1[L], lo2[L], hi2[L];
-    detail::to_blocks(rows, out);
-    detail::to_blocks(f1, lo1);
-    detail::to_blocks(h1, hi1);
-    detail::to_blocks(f2, lo2);
-    detail::to_blocks(h2, hi2);
+    BodyRow* b1[L];
+    BodyRow* b2[L];
     for (int l = 0; l < L; ++l) {
-        detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
-        store_body4(bodies[K[l]->b1], lo1[l], hi1[l]);
-        if (K[l]->b2 >= 0) store_body4(bodies[K[l]->b2], lo2[l], hi2[l]);
+        b1[l] = &bodies[K[l]->b1];
+        b2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : nullptr;
+    }
+    if constexpr (L == 4) {
+        detail::store_four<true>(K, offsetof(SphereRow, lambda), rows);
+        detail::store_four<true>(b1, 0, f1);
+        detail::store_four<false>(b1, half, h1);  // fc[4], fc[5]: invm and invi stay
+        detail::store_four<true>(b2, 0, f2);
+        detail::store_four<false>(b2, half, h2);
+    } else {
+        detail::Quad out[L], lo1[L], hi1[L], lo2[L], hi2[L];
+        detail::untranspose8(rows, out);
+        detail::untranspose8(f1, lo1);
+        detail::untranspose8(h1, hi1);
+        detail::untranspose8(f2, lo2);
+        detail::untranspose8(h2, hi2);
+        for (int l = 0; l < L; ++l) {
+            detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
+            detail::store_block(b1[l], 0, lo1[l]);
+            detail::store_block(b1[l], half, hi1[l]);
+            if (!b2[l]) continue;
+            detail::store_block(b2[l], 0, lo2[l]);
+            detail::store_block(b2[l], half, hi2[l]);
+        }
     }
 }
 
