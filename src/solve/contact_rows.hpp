@@ -227,8 +227,9 @@ template <class V>
 PARODE_LANE_INLINE V abs(V v) { return v < splat<V>(0.0) ? -v : v; }
 template <class V>
 PARODE_LANE_INLINE V max(V a, V b) { return a < b ? b : a; }
-// Block `at` (4 doubles from the byte offset) of each of four records, transposed.
-// (Read through a type of the doubles' own alignment, as one 32-byte load each:
+// A record's block `at` (four doubles, Quad, or two, Pair, from the byte
+// offset), read or written in one go through a type of the doubles' own
+// alignment (one 32-byte load for a Quad:
 // a memcpy was expanded as two 16-byte halves through the stack.)
 template <class V>
 struct UnalignedOf;
@@ -314,8 +315,8 @@ template <class T>
 PARODE_LANE_INLINE void store_halves(T* lo_rec, T* hi_rec, std::size_t at, Quad q) {
     Pair high;
     std::memcpy(&high, reinterpret_cast<const char*>(&q) + sizeof(Pair), sizeof(Pair));
-    *reinterpret_cast<Unaligned<Pair>*>(reinterpret_cast<char*>(lo_rec) + at) = __builtin_shufflevector(q, q, 0, 1);
-    *reinterpret_cast<Unaligned<Pair>*>(reinterpret_cast<char*>(hi_rec) + at) = high;
+    store_block(lo_rec, at, Pair(__builtin_shufflevector(q, q, 0, 1)));
+    store_block(hi_rec, at, high);
 }
 // Records (null: not written) get their block `at` back from four lane
 // vectors; Whole = false: only its first half (v[0], v[1]; the rest of the
@@ -416,8 +417,9 @@ PARODE_LANE_INLINE void load_lanes(const BodyRow* const* B, V* f, V& invm, V& in
     f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
 }
 // What four or eight lanes write back: each row's lambda (with its mu,
-// unchanged) as one block, each body's row as two (its invm and invi
-// unchanged; a static partner's not at all).
+// unchanged) as one block, each body's corrections (eight lanes: with its
+// unchanged invm and invi as a second block; four: as one and a half); a
+// static partner's not at all.
 template <class V>
 PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
                                     V i1, const V* f2, V m2, V i2) {
