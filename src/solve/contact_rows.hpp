@@ -318,19 +318,29 @@ PARODE_LANE_INLINE void store_halves(T* lo_rec, T* hi_rec, std::size_t at, Quad 
     store_block(lo_rec, at, Pair(__builtin_shufflevector(q, q, 0, 1)));
     store_block(hi_rec, at, high);
 }
-// Records (null: not written) get their block `at` back from four lane
-// vectors; Whole = false: only its first half (v[0], v[1]; the rest of the
-// block is unchanged).
-template <bool Whole, class T>
+// Records get their block `at` back from four lane vectors.
+template <class T>
 PARODE_LANE_INLINE void store_four(T* const* rec, std::size_t at, const Quad* v) {
-    T dummy[1];  // unused: stands in for a record not written
-    T* r[4];
-    for (int l = 0; l < 4; ++l) r[l] = rec[l] ? rec[l] : dummy;
-    store_halves(r[0], r[2], at, __builtin_shufflevector(v[0], v[1], 0, 4, 2, 6));
-    store_halves(r[1], r[3], at, __builtin_shufflevector(v[0], v[1], 1, 5, 3, 7));
+    store_halves(rec[0], rec[2], at, __builtin_shufflevector(v[0], v[1], 0, 4, 2, 6));
+    store_halves(rec[1], rec[3], at, __builtin_shufflevector(v[0], v[1], 1, 5, 3, 7));
+    store_halves(rec[0], rec[2], at + 16, __builtin_shufflevector(v[2], v[3], 0, 4, 2, 6));
+    store_halves(rec[1], rec[3], at + 16, __builtin_shufflevector(v[2], v[3], 1, 5, 3, 7));
+}
+// Records get four lane vectors added to their block `at` (Whole = false:
+// only to its first half, v[0], v[1]), a half at a time as store_four writes
+// a block: read from `from`, written to `to` (the same records, or for one not
+// written a row of zeros read and a scratch row written).
+template <class T>
+PARODE_LANE_INLINE void add_halves(const T* from_lo, const T* from_hi, T* to_lo, T* to_hi, std::size_t at, Quad q) {
+    store_halves(to_lo, to_hi, at, join_halves(from_lo, from_hi, at) + q);
+}
+template <bool Whole, class T>
+PARODE_LANE_INLINE void add_four(const T* const* from, T* const* to, std::size_t at, const Quad* v) {
+    add_halves(from[0], from[2], to[0], to[2], at, __builtin_shufflevector(v[0], v[1], 0, 4, 2, 6));
+    add_halves(from[1], from[3], to[1], to[3], at, __builtin_shufflevector(v[0], v[1], 1, 5, 3, 7));
     if constexpr (Whole) {
-        store_halves(r[0], r[2], at + 16, __builtin_shufflevector(v[2], v[3], 0, 4, 2, 6));
-        store_halves(r[1], r[3], at + 16, __builtin_shufflevector(v[2], v[3], 1, 5, 3, 7));
+        add_halves(from[0], from[2], to[0], to[2], at + 16, __builtin_shufflevector(v[2], v[3], 0, 4, 2, 6));
+        add_halves(from[1], from[3], to[1], to[3], at + 16, __builtin_shufflevector(v[2], v[3], 1, 5, 3, 7));
     }
 }
 // Block `at` of each of lanes<V>() (four or eight) records, as four vectors
@@ -416,44 +426,59 @@ PARODE_LANE_INLINE void load_lanes(const BodyRow* const* B, V* f, V& invm, V& in
     detail::load_blocks(B, 4 * sizeof(double), b);
     f[4] = b[0], f[5] = b[1], invm = b[2], invi = b[3];
 }
-// What four or eight lanes write back: each row's lambda (with its mu,
-// unchanged) as one block, each body's corrections (eight lanes: with its
-// unchanged invm and invi as a second block; four: as one and a half); a
-// static partner's not at all.
+// What eight lanes write back: each row's lambda (with its mu, unchanged)
+// as one block, each body's corrections with its unchanged invm and invi as
+// a second block; a static partner's not at all.
 template <class V>
 PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
                                     V i1, const V* f2, V m2, V i2) {
     constexpr int L = detail::lanes<V>();
+    static_assert(L == 8, "four lanes write back through add_four_lanes");
     constexpr std::size_t half = 4 * sizeof(double);
     const V rows[4] = {n0, n1, n2, mu}, h1[4] = {f1[4], f1[5], m1, i1}, h2[4] = {f2[4], f2[5], m2, i2};
-    BodyRow* b1[L];
-    BodyRow* b2[L];
+    detail::Quad out[L], lo1[L], hi1[L], lo2[L], hi2[L];
+    detail::untranspose8(rows, out);
+    detail::untranspose8(f1, lo1);
+    detail::untranspose8(h1, hi1);
+    detail::untranspose8(f2, lo2);
+    detail::untranspose8(h2, hi2);
     for (int l = 0; l < L; ++l) {
-        b1[l] = &bodies[K[l]->b1];
-        b2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : nullptr;
+        BodyRow* b1 = &bodies[K[l]->b1];
+        detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
+        detail::store_block(b1, 0, lo1[l]);
+        detail::store_block(b1, half, hi1[l]);
+        if (K[l]->b2 < 0) continue;
+        BodyRow* b2 = &bodies[K[l]->b2];
+        detail::store_block(b2, 0, lo2[l]);
+        detail::store_block(b2, half, hi2[l]);
     }
-    if constexpr (L == 4) {
-        detail::store_four<true>(K, offsetof(SphereRow, lambda), rows);
-        detail::store_four<true>(b1, 0, f1);
-        detail::store_four<false>(b1, half, h1);  // fc[4], fc[5]: invm and invi stay
-        detail::store_four<true>(b2, 0, f2);
-        detail::store_four<false>(b2, half, h2);
-    } else {
-        detail::Quad out[L], lo1[L], hi1[L], lo2[L], hi2[L];
-        detail::untranspose8(rows, out);
-        detail::untranspose8(f1, lo1);
-        detail::untranspose8(h1, hi1);
-        detail::untranspose8(f2, lo2);
-        detail::untranspose8(h2, hi2);
-        for (int l = 0; l < L; ++l) {
-            detail::store_block(K[l], offsetof(SphereRow, lambda), out[l]);
-            detail::store_block(b1[l], 0, lo1[l]);
-            detail::store_block(b1[l], half, hi1[l]);
-            if (!b2[l]) continue;
-            detail::store_block(b2[l], 0, lo2[l]);
-            detail::store_block(b2[l], half, hi2[l]);
-        }
+}
+
+// What four lanes write back: each row's lambda (with its mu) as one block,
+// and each body's corrections as the changes p1, p2 added to what its row
+// holds (fc + p rounds as the update fc += p in lanes does, so the bits are
+// the same): the bodies' corrections need not stay in registers through
+// the three rows (16 AVX registers: they were spilled to the stack and read
+// back). A static partner's changes go to a scratch row. A template (V =
+// Quad), so that it is compiled only inside the AVX entry point.
+// B1, B2: the body rows relax_lanes read (B2: `none` for a static partner),
+// which are the bodies' own rows, so written through the same pointers.
+template <class V>
+PARODE_LANE_INLINE void add_four_lanes(SphereRow* const* K, const BodyRow* const* B1, const BodyRow* const* B2,
+                                       const BodyRow* none, const V* rows, const V* p1, const V* p2) {
+    constexpr std::size_t half = 4 * sizeof(double);
+    BodyRow scratch;  // written, never read
+    BodyRow* b1[4];
+    BodyRow* b2[4];
+    for (int l = 0; l < 4; ++l) {
+        b1[l] = const_cast<BodyRow*>(B1[l]);
+        b2[l] = B2[l] == none ? &scratch : const_cast<BodyRow*>(B2[l]);
     }
+    detail::store_four(K, offsetof(SphereRow, lambda), rows);
+    detail::add_four<true>(b1, b1, 0, p1);
+    detail::add_four<false>(b1, b1, half, p1 + 4);  // fc[4], fc[5]: invm and invi stay
+    detail::add_four<true>(B2, b2, 0, p2);
+    detail::add_four<false>(B2, b2, half, p2 + 4);
 }
 
 // One projected Gauss-Seidel update of every row of L sphere contacts that
@@ -482,14 +507,24 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         B2[l] = K[l]->b2 >= 0 ? &bodies[K[l]->b2] : &none;
     }
     V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu, ad_n, ad_t, kt;
+    V u[3], w[3];
     if constexpr (L == 4 || L == 8) {
-        load_lanes(B1, f1, m1, i1);
-        load_lanes(B2, f2, m2, i2);
+        // In the order they are used: each body's corrections folded into
+        // the relative terms u, w as soon as they are read, the impulses
+        // and masses after (the same operations as below: fewer registers
+        // live at once, fewer spilled).
         V b[4];
         load_blocks(K, offsetof(SphereRow, n), b);
         n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
         load_blocks(K, offsetof(SphereRow, r2), b);
         r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
+        load_lanes(B1, f1, m1, i1);
+        for (int i = 0; i < 3; ++i) w[i] = r1 * f1[3 + i];
+        load_lanes(B2, f2, m2, i2);
+        for (int i = 0; i < 3; ++i) {
+            u[i] = f1[i] - f2[i];
+            w[i] = w[i] + r2 * f2[3 + i];
+        }
         load_blocks(K, offsetof(SphereRow, lambda), b);
         lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
         load_blocks(K, offsetof(SphereRow, ad_n), b);
@@ -511,22 +546,21 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
             rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
             lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
         }
+        for (int i = 0; i < 3; ++i) {
+            u[i] = f1[i] - f2[i];
+            w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
+        }
     }
-    tangent_frame(n, kt, t1, t2);
     const V k1 = i1 * r1, k2 = i2 * r2;
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
     const V cfm = splat<V>(c.cfm);
-    V u[3], w[3];
-    for (int i = 0; i < 3; ++i) {
-        u[i] = f1[i] - f2[i];
-        w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
-    }
     // Normal row: no angular part.
     V x = lam[0] + ad_n * (rhs[0] - cfm * lam[0] - dot(n, u));
     const V n0 = x < zero ? zero : x;
     const V d0 = n0 - lam[0];
     for (int i = 0; i < 3; ++i) u[i] += d0 * m * n[i];
     const V hi = abs(mu * n0), lo = -hi;
+    tangent_frame(n, kt, t1, t2);  // here, not at the start: six registers fewer through the normal row
     // Row t1: angular direction -t2.
     x = lam[1] + ad_t * (rhs[1] - cfm * lam[1] - (dot(t1, u) - dot(t2, w)));
     const V n1 = clamp(x, lo, hi);
@@ -547,12 +581,26 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
     for (int i = 0; i < 3; ++i) {
         dl[i] = d0 * n[i] + (d1 * t1[i] + d2 * t2[i]);
         da[i] = d2 * t1[i] - d1 * t2[i];
+    }
+    if constexpr (L == 4) {  // f1 - m2 dl is f1 + (-m2) dl, bit for bit
+        const V nm2 = -m2, rows[4] = {n0, n1, n2, mu};
+        V p1[6], p2[6];
+        for (int i = 0; i < 3; ++i) {
+            p1[i] = m1 * dl[i];
+            p1[3 + i] = k1 * da[i];
+            p2[i] = nm2 * dl[i];
+            p2[3 + i] = k2 * da[i];
+        }
+        add_four_lanes(K, B1, B2, &none, rows, p1, p2);
+        return;
+    }
+    for (int i = 0; i < 3; ++i) {
         f1[i] += m1 * dl[i];
         f1[3 + i] += k1 * da[i];
         f2[i] -= m2 * dl[i];
         f2[3 + i] += k2 * da[i];
     }
-    if constexpr (L == 4 || L == 8) {
+    if constexpr (L == 8) {
         store_lanes(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
         return;
     }
