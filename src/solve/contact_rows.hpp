@@ -430,7 +430,7 @@ PARODE_LANE_INLINE void load_lanes(const BodyRow* const* B, V* f, V& invm, V& in
 // as one block, each body's corrections with its unchanged invm and invi as
 // a second block; a static partner's not at all.
 template <class V>
-PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
+PARODE_LANE_INLINE void store_eight_lanes(SphereRow* const* K, BodyRow* bodies, V n0, V n1, V n2, V mu, const V* f1, V m1,
                                     V i1, const V* f2, V m2, V i2) {
     constexpr int L = detail::lanes<V>();
     static_assert(L == 8, "four lanes write back through add_four_lanes");
@@ -459,10 +459,10 @@ PARODE_LANE_INLINE void store_lanes(SphereRow* const* K, BodyRow* bodies, V n0, 
 // holds (fc + p rounds as the update fc += p in lanes does, so the bits are
 // the same): the bodies' corrections need not stay in registers through
 // the three rows (16 AVX registers: they were spilled to the stack and read
-// back). A static partner's changes go to a scratch row. A template (V =
-// Quad), so that it is compiled only inside the AVX entry point.
-// B1, B2: the body rows relax_lanes read (B2: `none` for a static partner),
-// which are the bodies' own rows, so written through the same pointers.
+// back). B1, B2: the body rows relax_lanes read, written through the same
+// pointers; B2 is `none` for a static partner, whose changes go to a
+// scratch row. A template (V = Quad), so that it is compiled only inside
+// the AVX entry point.
 template <class V>
 PARODE_LANE_INLINE void add_four_lanes(SphereRow* const* K, const BodyRow* const* B1, const BodyRow* const* B2,
                                        const BodyRow* none, const V* rows, const V* p1, const V* p2) {
@@ -479,6 +479,16 @@ PARODE_LANE_INLINE void add_four_lanes(SphereRow* const* K, const BodyRow* const
     detail::add_four<false>(b1, b1, half, p1 + 4);  // fc[4], fc[5]: invm and invi stay
     detail::add_four<true>(B2, b2, 0, p2);
     detail::add_four<false>(B2, b2, half, p2 + 4);
+}
+
+// The relative velocity terms u, w of relax_lanes from both bodies'
+// corrections.
+template <class V>
+PARODE_LANE_INLINE void relative_terms(const V* f1, const V* f2, V r1, V r2, V* u, V* w) {
+    for (int i = 0; i < 3; ++i) {
+        u[i] = f1[i] - f2[i];
+        w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
+    }
 }
 
 // One projected Gauss-Seidel update of every row of L sphere contacts that
@@ -509,22 +519,18 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
     V f1[6], f2[6], n[3], t1[3], t2[3], rhs[3], lam[3], r1, r2, m1, m2, i1, i2, mu, ad_n, ad_t, kt;
     V u[3], w[3];
     if constexpr (L == 4 || L == 8) {
-        // In the order they are used: each body's corrections folded into
-        // the relative terms u, w as soon as they are read, the impulses
-        // and masses after (the same operations as below: fewer registers
-        // live at once, fewer spilled).
+        // In the order they are used: the bodies' corrections folded into
+        // u, w as soon as both are read (then dead), the impulses and
+        // effective masses after: fewer registers live at once, fewer
+        // spilled.
         V b[4];
         load_blocks(K, offsetof(SphereRow, n), b);
         n[0] = b[0], n[1] = b[1], n[2] = b[2], r1 = b[3];
         load_blocks(K, offsetof(SphereRow, r2), b);
         r2 = b[0], rhs[0] = b[1], rhs[1] = b[2], rhs[2] = b[3];
         load_lanes(B1, f1, m1, i1);
-        for (int i = 0; i < 3; ++i) w[i] = r1 * f1[3 + i];
         load_lanes(B2, f2, m2, i2);
-        for (int i = 0; i < 3; ++i) {
-            u[i] = f1[i] - f2[i];
-            w[i] = w[i] + r2 * f2[3 + i];
-        }
+        relative_terms(f1, f2, r1, r2, u, w);
         load_blocks(K, offsetof(SphereRow, lambda), b);
         lam[0] = b[0], lam[1] = b[1], lam[2] = b[2], mu = b[3];
         load_blocks(K, offsetof(SphereRow, ad_n), b);
@@ -546,10 +552,7 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
             rhs[r] = gather_lanes<V, L>([&](int l) { return K[l]->rhs[r]; });
             lam[r] = gather_lanes<V, L>([&](int l) { return K[l]->lambda[r]; });
         }
-        for (int i = 0; i < 3; ++i) {
-            u[i] = f1[i] - f2[i];
-            w[i] = r1 * f1[3 + i] + r2 * f2[3 + i];
-        }
+        relative_terms(f1, f2, r1, r2, u, w);
     }
     const V k1 = i1 * r1, k2 = i2 * r2;
     const V m = m1 + m2, k = r1 * k1 + r2 * k2, zero = splat<V>(0.0);
@@ -601,7 +604,7 @@ PARODE_LANE_INLINE void relax_lanes(SphereRow* const* K, BodyRow* bodies, const 
         f2[3 + i] += k2 * da[i];
     }
     if constexpr (L == 8) {
-        store_lanes(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
+        store_eight_lanes(K, bodies, n0, n1, n2, mu, f1, m1, i1, f2, m2, i2);
         return;
     }
     for (int l = 0; l < L; ++l) {
