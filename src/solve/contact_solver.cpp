@@ -150,10 +150,10 @@ void ContactSolver::fill_body_rows() {
         for (std::size_t s = s0; s < s1; ++s) {
             BodyRow& H = hot_[s];
             const BodyData& B = bodies_[order[s]];
-            std::fill(H.fc, H.fc + 6, 0.0);
+            if (substeps_ > 1) start_motion(s, B, H);
+            else std::fill(H.fc, H.fc + 6, 0.0);
             H.invm = B.invm;
             H.invi = B.invi;
-            if (substeps_ > 1) start_motion(s, B);
         }
     });
 }
@@ -245,7 +245,9 @@ void ContactSolver::build_row(std::size_t k) {
     in.invm[1] = in.invi[1] = 0;
     for (int j = 0; j < 2 && locals[j] != kNone; ++j) {
         const BodyData& B = bodies_[locals[j]];
-        for (int i = 0; i < 6; ++i) tmp[j][i] = B.v[i] * fps + B.acc[i];
+        // With substeps the bodies' rows hold the velocity terms (substeps.cpp):
+        // the rows' right-hand sides keep only their targets.
+        for (int i = 0; i < 6; ++i) tmp[j][i] = substeps_ > 1 ? 0.0 : B.v[i] * fps + B.acc[i];
         in.tmp[j] = tmp[j];
         in.vel[j] = B.v;
         in.invm[j] = B.invm;  // from the body record build_row reads anyway, not the sweeps' row
@@ -528,9 +530,8 @@ bool ContactSolver::integrate_body(World& world, std::size_t i, double& max_spee
     const double* fc = hot_[layout_.slot()[i]].fc;
     const Motion* m = substeps_ > 1 ? &motion_[layout_.slot()[i]] : nullptr;
     const dReal* q = dBodyGetQuaternion(b);
-    const double* v0 = m ? m->v : B.v;
-    double v[6];
-    for (int k = 0; k < 6; ++k) v[k] = v0[k] + h * (B.acc[k] + fc[k]);
+    double v[6];  // with substeps the row holds v / h (the velocity form, substeps.cpp)
+    for (int k = 0; k < 6; ++k) v[k] = m ? h * fc[k] : B.v[k] + h * (B.acc[k] + fc[k]);
     // The turn: h w, or with substeps the sum of every substep's h w (the
     // mean angular velocity over the step), applied once.
     double turn[3];

@@ -21,8 +21,9 @@
 // With solver.substeps = S > 1 the step is cut into S substeps of dt / S on
 // one collision: each runs `iterations` sweeps, then every body (ghosts too,
 // with the same arithmetic as on its owner) moves by its substep's velocity,
-// and each row's right-hand side is recomputed for the new velocities and
-// the depth its bodies' displacement along the normal leaves; the impulses
+// and each normal row's target is recomputed for the depth its bodies'
+// displacement along the normal leaves; the bodies' rows hold velocities
+// (the velocity form), so no other term of a row changes; the impulses
 // carry over from substep to substep (substeps.cpp). ERP and CFM, given for
 // dt, become the same spring and damper at dt / S (substep_softness).
 // No damping, no auto-disable: such scenes stay on ODE's stepper (solver.cpp).
@@ -208,7 +209,7 @@ private:
     // after substep `s` (its velocity terms from the sweeps' corrections), then
     // every row's right-hand side for the next substep.
     void advance_bodies();
-    void start_motion(std::size_t slot, const BodyData& B);
+    void start_motion(std::size_t slot, const BodyData& B, BodyRow& H);
     void refresh_rows();
     void refresh_row(std::size_t p, const RowInputs& at);
     void prefetch_motion(std::size_t p) const;
@@ -220,18 +221,20 @@ private:
     bool only_sphere_rows() const;
     const double* inv_inertia(std::uint32_t local, double* diag) const;
 
-    // Per body slot (the sweeps' order) during substeps: its velocity, the
-    // velocity terms of its external forces (inv(M) f_ext) and the turn so far,
-    // read and written in slot order by the pass over the bodies; and what
-    // the pass over the rows reads of a body (in cell order, so nearly in slot
-    // order), 72 bytes: its velocity terms tmp = v / h + inv(M) f_ext and its
-    // displacement since the step began. The pass over the rows is bound by
-    // memory traffic: reading the 128-byte Motion there took 1.6 x as long.
+    // Per body slot (the sweeps' order) during substeps: the velocity terms
+    // of its external forces (inv(M) f_ext), the turn so far and its velocity
+    // terms tmp = v / h + inv(M) f_ext at the substep's start (its row holds
+    // tmp plus the sweeps' corrections: the velocity form, substeps.cpp), read
+    // and written in slot order by the pass over the bodies; and what the
+    // pass over the rows reads of a body (in cell order, so nearly in slot
+    // order): its displacement since the step began, 32 bytes. That pass is
+    // bound by memory traffic: reading the 128-byte Motion there took 1.6 x
+    // as long as a 72-byte record.
     struct alignas(64) Motion {
-        double v[6], acc[6], turn[3];  // turn: the sum of h w over the substeps so far
+        double acc[6], tmp[6], turn[3];  // turn: the sum of h w over the substeps so far
     };
-    struct Reach {
-        double tmp[6], dx[3];
+    struct alignas(32) Reach {
+        double dx[3];
     };
 
     const Scene& scene_;
