@@ -205,9 +205,8 @@ private:
     bool list_cells(bool all);
     bool integrate_body(World& world, std::size_t i, double& max_speed);
     void integrate_phase(World& world);
-    // Substeps (substeps.cpp): every local body's velocity and displacement
-    // after substep `s` (its velocity terms from the sweeps' corrections), then
-    // every row's right-hand side for the next substep.
+    // Substeps (substeps.cpp): every local body's displacement and its row for
+    // the next substep (the velocity form), then every normal row's target.
     void advance_bodies();
     void start_motion(std::size_t slot, const BodyData& B, BodyRow& H);
     void refresh_rows();
