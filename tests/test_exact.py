@@ -134,9 +134,7 @@ def head_on(e, options, mirrored=False):
     they meet, from their displacement over the last 0.1 s of 1 s. Mirrored:
     the same collision seen in a mirror (x -> -x), the 3 kg sphere first, so
     that each body takes the other's place in the contact's rows."""
-    a, b = (3.0, 1.0), (1.0, -2.0)
-    if not mirrored:
-        a, b = (1.0, 2.0), (3.0, -1.0)
+    a, b = ((3.0, 1.0), (1.0, -2.0)) if mirrored else ((1.0, 2.0), (3.0, -1.0))  # (mass, velocity)
     text = HEAD.format(dt=0.001, gz=0.0, mu=0.0, bounce=e) + f"""
 [[bodies]]
 name = "a"

@@ -93,15 +93,6 @@ void sphere_rhs(SphereRow& K, const double* tmp1, const double* tmp2, double c0,
     }
 }
 
-void block_rhs(Block& K, const double* tmp1, const double* tmp2, double c0, double fps) {
-    for (int row = 0; row < K.rows; ++row) {
-        const double* J = K.J[row];  // scaled by Ad
-        double jt = dot3(J, tmp1) + dot3(J + 3, tmp1 + 3);
-        if (tmp2) jt += dot3(J + 6, tmp2) + dot3(J + 9, tmp2 + 3);
-        K.rhs[row] = K.ad[row] * ((row == 0 ? c0 : 0.0) * fps) - jt;
-    }
-}
-
 void build_block(const ContactFrame& f, const RowInputs& in, Block& K) {
     K.b1 = f.b1;
     K.b2 = f.b2;

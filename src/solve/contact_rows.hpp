@@ -94,7 +94,7 @@ struct Block {
     double J[3][12];    // scaled by Ad
     double iMJ[3][12];  // inv(M) J^T, unscaled
     double rhs[3], cfm[3], lambda[3];
-    double n[3], ad[3];  // the normal (into body 1), each row's Ad (substeps recompute rhs)
+    double n[3], ad[3];  // the normal (into body 1), each row's Ad (substeps recompute the normal row's rhs)
 };
 
 // A contact as the builder sees it: bodies, normal into body 1 (ODE's
@@ -109,14 +109,14 @@ struct ContactFrame {
 // terms tmp = v / dt + inv(M) f_ext and the actual velocity (bounce), the
 // surface, and the solver's settings.
 struct RowInputs {
-    const double* tmp[2];  // 6 each; tmp[1] null when static
+    const double* tmp[2];  // 6 each; tmp[1] null when static; zeros with substeps (their velocity form)
     const double* vel[2];
     const double* invI[2];  // world-frame inverse inertia (Block only)
     double invm[2], invi[2];  // inverse mass, scalar inverse inertia (0: see invI)
     const dSurfaceParameters* surface;
     double fps, erp, cfm, surface_layer, max_correcting_vel, sor_w;
     int substeps;          // > 1: fps is a substep's, ERP and CFM converted (substep_softness)
-    struct Kept* kept;     // null, or where the build keeps what substeps recompute rhs from
+    struct Kept* kept;     // null, or where the build keeps what substeps recompute the normal target from
 };
 
 // What a row's substeps recompute its targets from: the depth at the step's
@@ -163,7 +163,6 @@ void build_block(const ContactFrame& f, const RowInputs& in, Block& K);
 // The right-hand sides for velocity terms tmp = v / h + inv(M) f_ext (tmp2
 // null when static) and the normal row's target c0 (the friction rows' is 0).
 void sphere_rhs(SphereRow& K, const double* tmp1, const double* tmp2, double c0, double fps);
-void block_rhs(Block& K, const double* tmp1, const double* tmp2, double c0, double fps);
 
 // Impulses in, velocity corrections out (warm start).
 void apply_impulses(const SphereRow& K, BodyRow* bodies);
