@@ -58,11 +58,12 @@ def same_spring(erp, cfm, s):
 
 class Plan:
     """The configurations and references of one scene, from its file: around
-    its dt, iterations and contact (ERP, CFM). Substeps with fewer than 3
-    iterations each (4 x 2, 8 x 1, 8 x 2: measured in
-    analysis/results/vm-amd-epyc-2c/front/) gain energy on a bounce, and
+    its dt, iterations and contact (ERP, CFM). Over-relaxed substeps with
+    fewer than 3 iterations each (4 x 2, 8 x 1, 8 x 2 at SOR w 1.3: measured
+    in analysis/results/vm-amd-epyc-2c/front/) gain energy on a bounce, and
     substeps with magnets on pump energy into the lattice: parode refuses
-    both, so they are not configurations."""
+    both, so they are not configurations; substeps of one or two sweeps at
+    w = 1 are."""
 
     def __init__(self, scene):
         with open(scene, "rb") as f:
@@ -92,6 +93,8 @@ class Plan:
                 "sub2-it10": ["solver.substeps=2", "solver.iterations=10"],
                 "sub4-it3": ["solver.substeps=4", "solver.iterations=3"],
                 "sub4-it5": ["solver.substeps=4", "solver.iterations=5"],
+                "sub4-it1-w1": ["solver.substeps=4", "solver.iterations=1", "solver.sor_w=1"],
+                "sub4-it2-w1": ["solver.substeps=4", "solver.iterations=2", "solver.sor_w=1"],
                 # 4 substeps with STIFF's contact: ERP and CFM at dt that are the scene's at dt / 4.
                 "sub4-it3-stiff": ["solver.substeps=4", "solver.iterations=3"] + stiffer(erp, cfm),
             })

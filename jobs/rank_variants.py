@@ -8,7 +8,8 @@ A variant is NAME=SPEC with SPEC a comma list of `latency=US` (the
 PARODE_INJECT_LATENCY_US testing aid: every point-to-point exchange
 completes no sooner than US microseconds after it began, as on a network of
 that latency), `ranks=R`, `threads=T`, `parode=PATH` (another build, e.g.
-the one before a change) and `key=value` scene overrides, e.g.
+the one before a change), `same=LABEL` (the computation the variant belongs
+to; default "all") and `key=value` scene overrides, e.g.
     base=latency=0  lat20=latency=20  blocking20=latency=20,parallel.overlap=false
     total=parallel.balance="total"  one=ranks=0,threads=2
 (ranks=0: one process, no launcher).
@@ -21,7 +22,10 @@ per-colour compute and wait (max over ranks), the colour imbalance, the
 waits, the exchange's bytes, the edge cut, the partition's colour imbalance,
 peak memory per rank and the state hash; writes OUT/variants_runs.csv and
 OUT/variants.md (medians, ratios against the first variant) and checks that
-every variant gave one state hash (they must: no variant may change a bit).
+the variants of one computation (one `same` label: all of them unless
+labelled) gave one state hash (they must: no layout, latency or overlap may
+change a bit); variants that compute different things on purpose (another
+solver setting) carry different labels.
 Trade-off: whole runs as separate processes, so each pays its start-up; only
 the steps after the first are compared.
 
@@ -42,11 +46,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def parse_variant(text, ranks, threads):
     name, _, spec = text.partition("=")
-    v = {"name": name, "latency": 0.0, "ranks": ranks, "threads": threads, "sets": [], "parode": None}
+    v = {"name": name, "latency": 0.0, "ranks": ranks, "threads": threads, "sets": [], "parode": None, "same": "all"}
     for item in filter(None, spec.split(",")):
         key, _, value = item.partition("=")
-        if key == "parode":
-            v["parode"] = value
+        if key in ("parode", "same"):
+            v[key] = value
         elif key in ("latency", "ranks", "threads"):
             v[key] = float(value) if key == "latency" else int(value)
         else:
@@ -97,7 +101,23 @@ def run(args, v):
     return row
 
 
-def summary(rows, names):
+def hash_lines(med, groups):
+    """One line per computation: its hash, or its variants' hashes when they
+    differ; and whether every computation gave one hash."""
+    lines, same = [], True
+    for label, members in groups.items():
+        hashes = sorted({h for n in members for h in med[n]["hashes"]})
+        who = "" if len(groups) == 1 else f"{label} ({', '.join(members)}): "
+        if len(hashes) == 1:
+            lines.append(f"state hash: {who}{hashes[0]} (one for every variant)")
+        else:
+            same = False
+            each = "; ".join(f"{n} {', '.join(med[n]['hashes'])}" for n in members)
+            lines.append(f"state hash: {who}VARIANTS DIFFER: {each}")
+    return lines, same
+
+
+def summary(rows, names, groups):
     keys = ["ms_later", "ms_per_step", "solve_ms", "collide_ms", "migrate_ms", "exchange_ms", "colour_imbalance", "wait_ms_max", "wait_ms_avg",
             "exchange_bytes_per_step", "edge_cut", "partition_colour_imbalance", "rss_mb_max"]
     med = {}
@@ -117,11 +137,10 @@ def summary(rows, names):
                      f"{m['colour_imbalance']:.3f} | {m['wait_ms_max']:.2f} | {m['exchange_bytes_per_step']:.0f} | "
                      f"{m['edge_cut']:.0f} | {m['partition_colour_imbalance']:.3f} | {m['rss_mb_max']:.0f} | "
                      f"{m['runs']} |")
-    hashes = {h for n in names for h in med[n]["hashes"]}
+    hl, same = hash_lines(med, groups)
     lines.append("")
-    lines.append(f"state hash: {', '.join(sorted(hashes))}" + (" (one for every variant)" if len(hashes) == 1
-                                                                 else " -- VARIANTS DIFFER"))
-    return "\n".join(lines) + "\n", len(hashes) == 1
+    lines += hl
+    return "\n".join(lines) + "\n", same
 
 
 def main():
@@ -151,7 +170,10 @@ def main():
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
-    text, same = summary(rows, names)
+    groups = {}
+    for v in variants:
+        groups.setdefault(v["same"], []).append(v["name"])
+    text, same = summary(rows, names, groups)
     header = (f"{a.catoms} catoms, {a.steps} steps, {a.ranks} ranks x {a.threads} threads (unless a variant says), "
               f"{a.repeats} turns\n\n")
     with open(os.path.join(a.out, "variants.md"), "w") as f:

@@ -2,7 +2,8 @@
 // state hash on 1-4 threads; against a reference (QuickStep, 200 iterations)
 // its error at 20 iterations is no worse than QuickStep's at 20 iterations on
 // the classic scenes; it rolls a sphere at 5/7 g sin(theta) and holds a column;
-// scenes with joints fall back to ODE's stepper and say so.
+// scenes with joints fall back to ODE's stepper and say so (and that it
+// leaves substeps out).
 // Trade-off: 1,000-catom scenes over 50-300 steps: long enough for the errors
 // to separate, short enough (a few seconds) for the default suite.
 #include <gtest/gtest.h>
@@ -166,6 +167,16 @@ TEST(ContactSolver, SceneWithJointsFallsBackToOdeStepperAndSaysWhy) {
     EXPECT_EQ(p->solver().name(), "ode-worldstep");
     EXPECT_NE(p->solver().why().find("joints"), std::string::npos);
     EXPECT_TRUE(p->stage(Stage::Joints).enabled);
+    EXPECT_EQ(p->solver().why().find("substeps"), std::string::npos);
+}
+
+TEST(ContactSolver, OdeStepperSaysItLeavesSubstepsOut) {
+    Scene sc = test::repo_scene("jobs/scenes/buggy.toml");
+    sc.solver.substeps = 4;
+    auto p = run_with(sc, 2, "parallel", 1);
+    EXPECT_EQ(p->solver().name(), "ode-worldstep");
+    EXPECT_NE(p->solver().why().find("solver.substeps = 4 not used"), std::string::npos) << p->solver().why();
+    EXPECT_NE(p->solver().why().find("joints"), std::string::npos) << p->solver().why();
 }
 
 }  // namespace

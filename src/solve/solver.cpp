@@ -2,11 +2,24 @@
 #include "solve/solver.hpp"
 
 #include <algorithm>
+#include <string>
 
 #include "solve/contact_solver.hpp"
 
 namespace parode {
 namespace {
+
+// What a run on ODE's stepper leaves out of the scene's settings: substeps
+// are the project's contact solver's; ODE takes whole steps.
+std::string ode_ignores(const Scene& scene) {
+    if (scene.solver.substeps <= 1) return "";
+    return "solver.substeps = " + std::to_string(scene.solver.substeps) + " not used (ODE's stepper takes whole steps)";
+}
+
+std::string joined(std::string a, const std::string& b) {
+    if (a.empty() || b.empty()) return a + b;
+    return a + "; " + b;
+}
 
 // One step of ODE's stepper with this world's dRand sequence (world.hpp).
 void ode_step(World& world, const Scene& scene) {
@@ -23,7 +36,10 @@ public:
     std::string name() const override {
         return scene_.solver.stepper == Stepper::Quick ? "ode-quickstep" : "ode-worldstep";
     }
-    std::string why() const override { return why_.empty() ? name() : name() + ": " + why_; }
+    std::string why() const override {
+        const std::string more = joined(why_, ode_ignores(scene_));
+        return more.empty() ? name() : name() + ": " + more;
+    }
     bool uses_contact_joints() const override { return true; }
     void step(World& world, const ContactBuffer& /*contacts*/) override { ode_step(world, scene_); }
 
@@ -46,8 +62,9 @@ public:
     }
     std::string name() const override { return "ode-threaded"; }
     std::string why() const override {
-        return "ODE's staged QuickStep on its own pool of " + std::to_string(threads_) +
-               " threads (not reproducible run to run with 2+ threads)";
+        return joined("ODE's staged QuickStep on its own pool of " + std::to_string(threads_) +
+                          " threads (not reproducible run to run with 2+ threads)",
+                      ode_ignores(scene_));
     }
     bool uses_contact_joints() const override { return true; }
     void step(World& world, const ContactBuffer& /*contacts*/) override {
