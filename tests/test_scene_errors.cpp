@@ -61,7 +61,7 @@ const BadCase kBadCases[] = {
     {"bad_stepper.toml", 6, "solver.stepper", "expected one of \"quick\", \"world\"", "got the string \"fast\""},
     {"magnets_off_noncatom.toml", 13, "magnets.off[1]", "expected the id of a catom body (catoms are bodies 1 to 8)",
      "got 0"},
-    {"substeps_few_iterations.toml", 6, "solver.iterations",
+    {"substeps_few_iterations.toml", 7, "solver.iterations",
      "expected at least 3 when solver.substeps > 1 and solver.sor_w > 1 (over-relaxed, fewer sweeps a substep "
      "overshoot a bounce", "got 2"},
     {"substeps_with_magnets.toml", 6, "solver.substeps",
