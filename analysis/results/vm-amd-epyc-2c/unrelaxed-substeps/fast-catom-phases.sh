@@ -17,7 +17,9 @@ for cfg in "default" "it10 solver.iterations=10" "it30 solver.iterations=30" \
            "s4i1w1 solver.substeps=4 solver.iterations=1 $W" \
            "s4i2w1 solver.substeps=4 solver.iterations=2 $W" \
            "s4i5w1 solver.substeps=4 solver.iterations=5 $W" \
-           "s8i1w1 solver.substeps=8 solver.iterations=1 $W"; do
+           "s8i1w1 solver.substeps=8 solver.iterations=1 $W" \
+           "s3i3 solver.substeps=3 solver.iterations=3" \
+           "s3i4 solver.substeps=3 solver.iterations=4"; do
   set -- $cfg; name=$1; shift; sets=""
   for s in "$@"; do sets="$sets --set $s"; done
   line="$name"; pass=0
