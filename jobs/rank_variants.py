@@ -174,8 +174,8 @@ def main():
     for v in variants:
         groups.setdefault(v["same"], []).append(v["name"])
     text, same = summary(rows, names, groups)
-    header = (f"{a.catoms} catoms, {a.steps} steps, {a.ranks} ranks x {a.threads} threads (unless a variant says), "
-              f"{a.repeats} turns\n\n")
+    layouts = ", ".join(f"{v['name']} {v['ranks'] or 'one process'} x {v['threads']}" for v in variants)
+    header = (f"{a.catoms} catoms, {a.steps} steps, {a.repeats} turns; ranks x threads: {layouts}\n\n")
     with open(os.path.join(a.out, "variants.md"), "w") as f:
         f.write(header + text)
     print(header + text)
