@@ -157,7 +157,7 @@ std::vector<SceneKey> build() {
          integer("max_contacts").in(1, 64).def(sv.max_contacts).means("contacts per geom pair"),
          boolean("warm_start", sv.warm_start).means("parode's contact solver starts from last step's impulses"),
          integer("substeps").in(1, 64).def(sv.substeps)
-             .means("parode's contact solver: substeps a step, `iterations` sweeps each, one collision"),
+             .means("parode's contact solver: substeps a step, `iterations` sweeps each (at least 3 unless `sor_w` <= 1), one collision"),
          integer("adaptive_sweeps").in(1, 100000).def(sv.adaptive_sweeps)
              .means("the adaptive solver: sweeps of every cell a step (a substep), before its active sweeps"),
          num("tolerance").unit("m/s").in(0, kInf).def(sv.tolerance)
